@@ -1,0 +1,61 @@
+"""Arresting-cable landing: design models of the paper's passive-deceleration phase.
+
+``one_dof`` holds the rigid-cable, vertical, central-landing 1-DOF model of Sec. II.B
+(eqs. 12-24, Fig. 6, Table 1) of Zhang et al. (2021).
+"""
+
+from jaxcable.arresting.one_dof import (
+    G_UNIT,
+    N_BUFFERS,
+    N_LEGS,
+    DesignCriteria,
+    OneDofParams,
+    OneDofSolution,
+    accel_bar,
+    acceleration_bound_end_of_stroke,
+    allowed_tension_bar,
+    buffer_from_groups,
+    design_groups,
+    energy_bar,
+    fig6,
+    fig6_curves,
+    friction_group_for_stop,
+    m_t_bar_bounds,
+    paper_design,
+    params_groups,
+    simulate_one_dof,
+    speed_sq_bar,
+    stop_distance_bar,
+    stroke_peaks,
+    table1_design,
+    tension_bar,
+    v0_bar,
+)
+
+__all__ = [
+    "G_UNIT",
+    "N_BUFFERS",
+    "N_LEGS",
+    "DesignCriteria",
+    "OneDofParams",
+    "OneDofSolution",
+    "accel_bar",
+    "acceleration_bound_end_of_stroke",
+    "allowed_tension_bar",
+    "buffer_from_groups",
+    "design_groups",
+    "energy_bar",
+    "fig6",
+    "fig6_curves",
+    "friction_group_for_stop",
+    "m_t_bar_bounds",
+    "paper_design",
+    "params_groups",
+    "simulate_one_dof",
+    "speed_sq_bar",
+    "stop_distance_bar",
+    "stroke_peaks",
+    "table1_design",
+    "tension_bar",
+    "v0_bar",
+]

@@ -1,0 +1,190 @@
+"""diffrax glue: one entry point, :func:`simulate`, with solver, tolerances, adjoint and saved
+times as arguments, and a :class:`Result` PyTree of time histories plus scalar outputs.
+
+Solver names map to diffrax solvers. Explicit Tsit5 is the default for the line-throwing rocket:
+its stiffest time scale (the shortest, lightest links under tension) is resolved by the accuracy
+the outputs need anyway, so implicit solvers buy nothing there (see ``experiments/`` benchmarks).
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import diffrax
+import optimistix as optx
+from jaxtyping import Array, PyTree
+
+from ._validation import check_choice, check_positive
+
+SOLVERS = {
+    "euler": diffrax.Euler,
+    "heun": diffrax.Heun,
+    "bosh3": diffrax.Bosh3,
+    "tsit5": diffrax.Tsit5,
+    "dopri5": diffrax.Dopri5,
+    "dopri8": diffrax.Dopri8,
+    "kvaerno3": diffrax.Kvaerno3,
+    "kvaerno4": diffrax.Kvaerno4,
+    "kvaerno5": diffrax.Kvaerno5,
+}
+
+_STATUS = {
+    int(diffrax.RESULTS.successful._value): "successful",
+    int(diffrax.RESULTS.event_occurred._value): "event_occurred",
+    int(diffrax.RESULTS.max_steps_reached._value): "max_steps_reached",
+}
+
+
+def status_message(code) -> str:
+    """Human-readable solver status from a diffrax result code."""
+    code = int(code)
+    if code in _STATUS:
+        return _STATUS[code]
+    try:
+        return str(diffrax.RESULTS._index_to_message[code])  # noqa: SLF001
+    except Exception:  # pragma: no cover - depends on the diffrax version
+        return f"solver_error_{code}"
+
+
+def make_solver(solver):
+    """A diffrax solver from a name (see ``SOLVERS``) or an instance."""
+    if isinstance(solver, str):
+        check_choice("solver", solver.lower(), SOLVERS)
+        return SOLVERS[solver.lower()]()
+    if isinstance(solver, diffrax.AbstractSolver):
+        return solver
+    raise ValueError(f"unknown solver {solver!r}; choose one of {sorted(SOLVERS)} or a diffrax solver")
+
+
+class Result(eqx.Module):
+    """Outcome of :func:`simulate`.
+
+    Attributes:
+        ts: saved times [s], (n_save,); entries after the run ended are ``inf``.
+        probes: PyTree of time histories on ``ts``.
+        snapshot_ts: snapshot times [s]; ``snapshots``: PyTree saved at those times.
+        final_state: state at the final time; ``t_final``: final time [s].
+        status: diffrax result code (0 success; see :func:`status_message`).
+        num_steps: accepted steps; ``num_rejected``: rejected steps.
+        outputs: dict of scalar outputs (the scene's ``summarize``).
+    """
+
+    ts: Array
+    probes: PyTree
+    snapshot_ts: Array
+    snapshots: PyTree
+    final_state: PyTree
+    t_final: Array
+    status: Array
+    num_steps: Array
+    num_rejected: Array
+    outputs: dict
+
+    @property
+    def status_message(self) -> str:
+        return status_message(self.status)
+
+    @property
+    def ok(self):
+        return (self.status == 0) | (self.status == int(diffrax.RESULTS.event_occurred._value))
+
+
+def _solve(scene, t1, save_ts, snapshot_ts, solver, controller, adjoint, max_steps, dt0, progress_meter):
+    term = diffrax.ODETerm(lambda t, y, args: scene.vector_field(t, y))
+    subs = [
+        diffrax.SubSaveAt(ts=save_ts, fn=lambda t, y, args: scene.probe(t, y)),
+        diffrax.SubSaveAt(ts=snapshot_ts, fn=lambda t, y, args: scene.snapshot(t, y)),
+        diffrax.SubSaveAt(t1=True),
+    ]
+    event = None
+    if scene.has_terminal_event:
+        event = diffrax.Event(
+            lambda t, y, args, **kw: scene.terminal_event(t, y),
+            root_finder=optx.Newton(rtol=1e-9, atol=1e-9),
+        )
+    sol = diffrax.diffeqsolve(
+        term,
+        solver,
+        t0=0.0,
+        t1=t1,
+        dt0=dt0,
+        y0=scene.initial_state(),
+        saveat=diffrax.SaveAt(subs=subs),
+        stepsize_controller=controller,
+        adjoint=adjoint,
+        event=event,
+        max_steps=max_steps,
+        throw=False,
+        progress_meter=progress_meter,
+    )
+    probes, snaps, final = sol.ys
+    t_final = sol.ts[2][0]
+    final_state = jax.tree_util.tree_map(lambda x: x[0], final)
+    res = Result(
+        ts=sol.ts[0],
+        probes=probes,
+        snapshot_ts=sol.ts[1],
+        snapshots=snaps,
+        final_state=final_state,
+        t_final=t_final,
+        status=sol.result._value,
+        num_steps=sol.stats["num_accepted_steps"],
+        num_rejected=sol.stats["num_rejected_steps"],
+        outputs={},
+    )
+    return eqx.tree_at(lambda r: r.outputs, res, scene.summarize(res))
+
+
+_solve_jit = eqx.filter_jit(_solve)
+
+
+def simulate(
+    scene,
+    t1: float = 30.0,
+    *,
+    solver="tsit5",
+    rtol: float = 1e-6,
+    atol: float = 1e-6,
+    dt0=None,
+    save_ts=None,
+    snapshot_ts=None,
+    adjoint=None,
+    max_steps: int = 200_000,
+    progress: bool = False,
+    jit: bool = True,
+) -> Result:
+    """Integrate a scene from t = 0 to ``t1`` [s] (or to its terminal event).
+
+    Args:
+        scene: an :class:`~jaxcable.scene.AbstractScene`.
+        t1: final time [s] if no event ends the run first.
+        solver: a name in ``SOLVERS`` or a diffrax solver instance.
+        rtol, atol: tolerances of the PID step-size controller (mixed, on the state).
+        dt0: initial step [s]; ``None`` lets diffrax choose.
+        save_ts: times for the probe histories [s] (default: the scene's ``default_save_ts``).
+        snapshot_ts: times for snapshots [s] (default: the scene's ``default_snapshot_ts``).
+        adjoint: a diffrax adjoint (default ``RecursiveCheckpointAdjoint``: exact reverse-mode).
+        max_steps: step budget; a run that exhausts it reports ``max_steps_reached``.
+        progress: show a tqdm progress bar (outside ``vmap``).
+        jit: compile the solve (one ``filter_jit`` boundary); ``False`` for debugging only.
+    """
+    check_positive("t1", t1)
+    check_positive("rtol", rtol)
+    check_positive("atol", atol)
+    solver_ = make_solver(solver)
+    controller = diffrax.PIDController(rtol=rtol, atol=atol)
+    jumps = scene.jump_times()
+    if jumps is not None:
+        controller = diffrax.ClipStepSizeController(controller, jump_ts=jumps)
+    if save_ts is None:
+        save_ts = scene.default_save_ts(t1)
+    if snapshot_ts is None:
+        snapshot_ts = scene.default_snapshot_ts(t1)
+    save_ts = jnp.asarray(save_ts, dtype=float)
+    snapshot_ts = jnp.asarray(snapshot_ts, dtype=float)
+    if adjoint is None:
+        adjoint = diffrax.RecursiveCheckpointAdjoint()
+    meter = diffrax.TqdmProgressMeter() if progress else diffrax.NoProgressMeter()
+    fn = _solve_jit if jit else _solve
+    return fn(scene, t1, save_ts, snapshot_ts, solver_, controller, adjoint, max_steps, dt0, meter)
