@@ -150,7 +150,7 @@ def simulate(
     save_ts=None,
     snapshot_ts=None,
     adjoint=None,
-    max_steps: int = 200_000,
+    max_steps: int = 100_000,
     progress: bool = False,
     jit: bool = True,
 ) -> Result:

@@ -65,9 +65,9 @@ class PointRocket(eqx.Module):
 
     def thrust(self, t, velocity, launch_direction):
         """Thrust vector [N] along the velocity (the launch direction while at rest)."""
-        # A 1 mm/s blend with the launch direction keeps the direction defined (and its gradient
+        # A 1 um/s blend with the launch direction keeps the direction defined (and its gradient
         # finite) at the start, when the velocity is zero.
-        axis = safe_normalize(velocity + 1e-3 * launch_direction, launch_direction)
+        axis = safe_normalize(velocity + 1e-6 * launch_direction, launch_direction)
         return self.thrust_magnitude(t) * axis
 
 
