@@ -1,0 +1,127 @@
+"""The line-throwing scene end to end: gradients against finite differences, vmap, bad input, the
+command line, component choices."""
+
+import json
+import subprocess
+import sys
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxcable
+from jaxcable.scenes import line_throwing_scene, with_angle
+
+COARSE = dict(segment_length_m=10.0, rope_length_m=800.0)
+SIM = dict(t1=40.0, solver="dopri5", rtol=1e-9, atol=1e-9)
+
+
+def _range(scene):
+    return jaxcable.simulate(scene, **SIM).outputs["range_m"]
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return line_throwing_scene(30.0, **COARSE)
+
+
+def test_flight_reports_outputs(scene):
+    res = jaxcable.simulate(scene, **SIM)
+    out = res.outputs
+    assert res.status_message == "event_occurred"  # ended at ground impact, not at t1
+    assert 0 < float(out["flight_time_s"]) < SIM["t1"]
+    assert float(out["range_m"]) > 100.0
+    assert abs(float(res.final_state.r0[1])) < 1e-6  # impact located on y = 0
+    v = np.asarray(out["speed_at_1_2_3_4_s_mps"])
+    assert v.shape == (4,) and np.all(np.diff(v) < 0)  # decelerating coast, as the radar shows
+    assert float(out["max_speed_mps"]) > v[0]
+
+
+def test_gradients_match_central_differences(scene):
+    """d range / d (rope drag coefficient) and d range / d (launch angle), float64."""
+
+    def f_cd(cd):
+        return _range(eqx.tree_at(lambda s: s.rope.drag_coefficient, scene, cd))
+
+    def f_angle(a):
+        return _range(with_angle(scene, a))
+
+    cd0 = scene.rope.drag_coefficient
+    a0 = scene.launch.angle_rad
+    for f, x0, h in ((f_cd, cd0, 1e-4 * cd0), (f_angle, a0, 1e-4)):
+        g = jax.grad(f)(x0)
+        fd = (f(x0 + h) - f(x0 - h)) / (2 * h)
+        assert np.isfinite(float(g))
+        assert abs(float(g) - float(fd)) <= 2e-3 * abs(float(fd)) + 1e-6, (float(g), float(fd))
+
+
+def test_vmap_over_launch_angles_matches_single_runs(scene):
+    angles = jnp.deg2rad(jnp.array([25.0, 40.0, 55.0]))
+    batched = jax.vmap(lambda a: jaxcable.simulate(with_angle(scene, a), **SIM).outputs)(angles)
+    for i, a in enumerate(angles):
+        single = jaxcable.simulate(with_angle(scene, a), **SIM).outputs
+        for key in ("range_m", "flight_time_s", "max_speed_mps"):
+            np.testing.assert_allclose(batched[key][i], single[key], rtol=1e-9)
+
+
+@pytest.mark.parametrize(
+    "kwargs,field",
+    [
+        (dict(angle_deg=0.0), "angle_deg"),
+        (dict(angle_deg=90.0), "angle_deg"),
+        (dict(angle_deg=float("nan")), "angle_deg"),
+        (dict(segment_length_m=-1.0), "segment_length_m"),
+        (dict(segment_length_m=float("nan")), "segment_length_m"),
+        (dict(rope_length_m=-5.0), "rope_length_m"),
+        (dict(rope_linear_density_kg_per_m=-0.1), "linear_density"),
+        (dict(rope_linear_density_kg_per_m=float("nan")), "linear_density"),
+        (dict(rocket_drag_coefficient=-0.3), "drag_coefficient"),
+        (dict(pullout="magic"), "pull-out"),
+        (dict(drag_form="sideways"), "drag form"),
+    ],
+)
+def test_bad_input_names_the_field(kwargs, field):
+    with pytest.raises(ValueError, match=field):
+        line_throwing_scene(**{**dict(angle_deg=30.0), **kwargs})
+
+
+def test_bad_rocket_and_solver_inputs(scene):
+    from jaxcable.body.rocket import paper_rocket
+
+    with pytest.raises(ValueError, match="rocket.mass_kg"):
+        eqx.tree_at(lambda r: r.mass_kg, paper_rocket(), jnp.asarray(-20.0)).__check_init__()
+    with pytest.raises(ValueError, match="solver"):
+        jaxcable.simulate(scene, 10.0, solver="rk99")
+    with pytest.raises(ValueError, match="rtol"):
+        jaxcable.simulate(scene, 10.0, rtol=-1.0)
+
+
+def test_pullout_models_order_the_range():
+    """Momentum flux costs range; a box that resists more costs more; none costs nothing."""
+    ranges = {}
+    for kind, force in (("none", 0.0), ("constant", 200.0), ("momentum_flux", 0.0), ("momentum_flux", 200.0)):
+        sc = line_throwing_scene(30.0, pullout=kind, pullout_force_N=force, **COARSE)
+        ranges[(kind, force)] = float(_range(sc))
+    assert ranges[("none", 0.0)] > ranges[("constant", 200.0)]
+    assert ranges[("none", 0.0)] > ranges[("momentum_flux", 0.0)] > ranges[("momentum_flux", 200.0)]
+
+
+def test_per_axis_drag_option_runs_and_differs(scene):
+    per_axis = line_throwing_scene(30.0, drag_form="per_axis", **COARSE)
+    r_std, r_axis = float(_range(scene)), float(_range(per_axis))
+    assert np.isfinite(r_axis) and r_axis != r_std
+
+
+def test_command_line_json():
+    cmd = [sys.executable, "-m", "jaxcable.cli", "throw", "--angle", "35", "--segment-length", "10", "--json"]
+    out = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stderr
+    data = json.loads(out.stdout)
+    for key in ("range_m", "max_speed_mps", "flight_time_s", "speed_at_1_2_3_4_s_mps", "n_segments", "solver_status"):
+        assert key in data
+    assert len(data["speed_at_1_2_3_4_s_mps"]) == 4
+    assert data["solver_status"] == "event_occurred"
+    bad = subprocess.run([sys.executable, "-m", "jaxcable.cli", "throw", "--angle", "120"], capture_output=True, text=True)
+    assert bad.returncode != 0 and "--angle" in bad.stderr
