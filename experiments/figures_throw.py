@@ -77,6 +77,7 @@ def machine_info() -> dict:
         "jax_backend": f"{dev.platform} ({dev.device_kind})",
         "float64": bool(jax.config.jax_enable_x64),
         "jaxcable": jaxcable.__version__,
+        "load_average_1_5_15_min": [round(x, 2) for x in os.getloadavg()],
     }
 
 
@@ -117,15 +118,20 @@ def flight(res, i):
     pos = np.vstack([np.asarray(p.position[i])[ok], end_pos])
     vel = np.vstack([np.asarray(p.velocity[i])[ok], end_vel])
     t = np.append(ts[ok], tf)
+    speed = np.hypot(vel[:, 0], vel[:, 1])
+    # The trajectory angle and the acceleration along the velocity are undefined while the rocket is
+    # at rest (t = 0, where the probes report 0): leave those samples out of Figs 5 and 7.
+    moving = speed > 1e-9
     snap_t = np.asarray(res.snapshot_ts[i])
     keep = np.isfinite(snap_t) & (snap_t <= tf)
     return {
         "t": t,
         "position": pos,
-        "speed": np.hypot(vel[:, 0], vel[:, 1]),
-        "trajectory_angle_deg": np.degrees(np.arctan2(vel[:, 1], vel[:, 0])),
-        "t_probe": ts[ok],
-        "acceleration": np.asarray(p.acceleration[i])[ok],
+        "speed": speed,
+        "t_moving": t[moving],
+        "trajectory_angle_deg": np.degrees(np.arctan2(vel[moving, 1], vel[moving, 0])),
+        "t_probe": ts[ok][moving[:-1]],
+        "acceleration": np.asarray(p.acceleration[i])[ok][moving[:-1]],
         "snapshot_ts": snap_t[keep],
         "snapshots": np.asarray(res.snapshots[i])[keep],
         "t_final": tf,
@@ -217,9 +223,14 @@ def make_figures(flights, angles_deg, out, subtitle, burn_time_s):
     # Fig 5: trajectory angle.
     fig, ax = plt.subplots(figsize=(7.5, 4.5))
     for a, fl, c in zip(angles_deg, flights, colors):
-        ax.plot(fl["t"], fl["trajectory_angle_deg"], color=c, label=label(a))
+        ax.plot(fl["t_moving"], fl["trajectory_angle_deg"], color=c, label=label(a))
+        ax.plot(0.0, a, "o", color=c, ms=4)  # the launch direction
     ax.axhline(0.0, color="0.5", lw=0.8)
-    ax.set(xlabel="t [s]", ylabel="trajectory angle atan2(vy, vx) [deg]", title=f"Fig. 5 trajectory angle ({subtitle})")
+    ax.set(
+        xlabel="t [s]",
+        ylabel="trajectory angle atan2(vy, vx) [deg]",
+        title=f"Fig. 5 trajectory angle ({subtitle}; dots: launch angle)",
+    )
     ax.grid(alpha=0.3)
     ax.legend(title="launch angle")
     save(fig, "fig5_trajectory_angle.png")
