@@ -269,7 +269,10 @@ def chain_accelerations(kin: ChainKinematics, forces, segment_length_m):
     Links ``1..K-1`` (``K = kin.n_free``) are hinge-hinge links between point masses: their tensions
     come from one symmetric tridiagonal system. Link ``K`` is a rigid rod hinged at node ``K-1``
     carrying node ``K`` and, when ``K = k``, the collinear tail; it is eliminated first into an
-    articulated 2x2 inertia on node ``K-1``. When ``K = k + 1`` the rod is the growing link itself.
+    articulated 2x2 inertia on node ``K-1``. When ``K = k + 1`` (``hinged_tail``) the rod is the
+    growing link itself, treated as it will be once complete: its far node at a fixed distance (no ALE
+    term) and a zero-mass tail beyond it, so that this configuration equals the one just after the
+    completion and the blend of :func:`rope_vector_field` is continuous.
 
     Args:
         kin: kinematics from :func:`kinematics`.
@@ -287,7 +290,6 @@ def chain_accelerations(kin: ChainKinematics, forces, segment_length_m):
     # --- the rod: link K hinged at node K-1, node K on it, plus the collinear tail if K = k ---
     kk = jnp.clip(K, 1, n)  # node K (valid when K >= 1)
     kt = jnp.minimum(K + 1, n)  # tail node
-    rod_is_growing = K == k + 1  # link K is the growing one (node K is the ALE node)
     tail_on = (K == k) & (k < n)
     m_k = m[kk]
     m_t = jnp.where(tail_on, m[kt], 0.0)
@@ -298,12 +300,11 @@ def chain_accelerations(kin: ChainKinematics, forces, segment_length_m):
     w_r = kin.omega[kk - 1]
     s1 = kin.lengths[kk - 1]
     s2 = s1 + jnp.where(tail_on, kin.tail_length, 0.0)
-    ale1 = jnp.where(rod_is_growing, sdot, 0.0)
     D = s1**2 * m_k + s2**2 * m_t
     wvec = (s1 * m_k + s2 * m_t) * p_r
-    c1 = s1 * w_r**2 * u_r - ale1 * w_r * p_r
+    c1 = s1 * w_r**2 * u_r
     c2 = s2 * w_r**2 * u_r - sdot * w_r * p_r
-    beta = s1 * (-m_k * ale1 * w_r - jnp.dot(p_r, F_k)) + s2 * (-m_t * sdot * w_r - jnp.dot(p_r, F_t))
+    beta = -s1 * jnp.dot(p_r, F_k) + s2 * (-m_t * sdot * w_r - jnp.dot(p_r, F_t))
     A_rod = (m_k + m_t) * eye - _outer(wvec, wvec) / D
     b_rod = m_k * c1 + m_t * c2 - F_k - F_t - wvec * beta / D
     # K = 0: the tail is rigidly attached to the rocket and translates with it.
@@ -312,33 +313,30 @@ def chain_accelerations(kin: ChainKinematics, forces, segment_length_m):
     h = jnp.maximum(K - 1, 0)
 
     # --- tension chain over hinge-hinge links 1..K-1 (nodes 0..K-1); node h carries the rod ---
-    # Every node but h has an isotropic inverse mass 1/m; node h has the 2x2 matrix W_h.
+    # Every node but h has an isotropic inverse mass 1/m; node h has the 2x2 matrix W_h. Since
+    # |u_j| = 1, the isotropic entries need no matrix products; row h gets W_h explicitly.
     node = jnp.arange(n + 1)
-    is_h = node == h
-    inv_m = jnp.where(m > 0, 1.0 / jnp.where(m > 0, m, 1.0), 0.0)
-    inv_m = jnp.where(is_h, 0.0, inv_m)
+    inv_m = jnp.where((m > 0) & (node <= h), 1.0 / jnp.where(m > 0, m, 1.0), 0.0)
+    inv_m = inv_m.at[h].set(0.0)
     W_h = jnp.linalg.inv(m[h] * eye + A_h)
-    Fp = jnp.where(is_h[:, None], forces - b_h, forces)
-    Fp = jnp.where((node <= h)[:, None], Fp, 0.0)
-
-    def W_dot(vec):  # W_i vec_i for every node i, vec (n+1, 2)
-        return inv_m[:, None] * vec + is_h[:, None] * (vec @ W_h.T)
+    F_h = forces[h] - b_h
+    WF = inv_m[:, None] * forces
+    WF = WF.at[h].set(W_h @ F_h)
 
     link = jnp.arange(1, n + 1)
     active = link <= K - 1
     u = kin.u
-    u_prev = jnp.concatenate([jnp.zeros((1, 2)), u[:-1]], axis=0)  # u_{j-1}
-    u_next = jnp.concatenate([u[1:], jnp.zeros((1, 2))], axis=0)  # u_{j+1}
-    # W_{j-1} and W_j applied to link vectors: node j-1 is index j-1 = row, node j is row+1.
-    Wu_at_prev = W_dot(jnp.concatenate([u, jnp.zeros((1, 2))], 0))[:-1]  # W_{j-1} u_j
-    Wu_at_next = W_dot(jnp.concatenate([jnp.zeros((1, 2)), u], 0))[1:]  # W_j u_j
-    diag = -(jnp.sum(u * Wu_at_prev, -1) + jnp.sum(u * Wu_at_next, -1))
-    Wup_prev = W_dot(jnp.concatenate([u_prev, jnp.zeros((1, 2))], 0))[:-1]  # W_{j-1} u_{j-1}
-    lower = jnp.where((link >= 2) & active, jnp.sum(u * Wup_prev, -1), 0.0)
-    Wun_next = W_dot(jnp.concatenate([jnp.zeros((1, 2)), u_next], 0))[1:]  # W_j u_{j+1}
-    upper = jnp.where((link + 1 <= K - 1) & active, jnp.sum(u * Wun_next, -1), 0.0)
-    WF = W_dot(Fp)
+    uu_prev = jnp.concatenate([jnp.zeros(1), jnp.sum(u[1:] * u[:-1], -1)])  # u_j . u_{j-1}
+    uu_next = jnp.concatenate([uu_prev[1:], jnp.zeros(1)])  # u_j . u_{j+1}
+    diag = -(inv_m[:-1] + inv_m[1:])
+    lower = inv_m[:-1] * uu_prev
+    upper = inv_m[1:] * uu_next
+    # row of link h (its far node is h): add u_h . W_h u_h to the diagonal (h >= 1 only)
+    u_h = u[jnp.maximum(h - 1, 0)]
+    diag = diag.at[h - 1].add(jnp.where(h >= 1, -(u_h @ W_h @ u_h), 0.0), mode="drop")
     rhs = -kin.lengths * kin.omega**2 - jnp.sum((WF[:-1] - WF[1:]) * u, -1)
+    lower = jnp.where((link >= 2) & active, lower, 0.0)
+    upper = jnp.where((link + 1 <= K - 1) & active, upper, 0.0)
     diag = jnp.where(active, diag, 1.0)
     rhs = jnp.where(active, rhs, 0.0)
     T = jax.lax.linalg.tridiagonal_solve(lower, diag, upper, rhs[:, None])[:, 0]
@@ -347,7 +345,8 @@ def chain_accelerations(kin: ChainKinematics, forces, segment_length_m):
     # --- node accelerations, then link angular accelerations ---
     Tu = T[:, None] * u  # force of link j on node j (toward node j-1), index j-1
     on_node = jnp.concatenate([jnp.zeros((1, 2)), Tu], 0) - jnp.concatenate([Tu, jnp.zeros((1, 2))], 0)
-    acc = W_dot(Fp + on_node)
+    acc = WF + inv_m[:, None] * on_node
+    acc = acc.at[h].set(W_h @ (F_h + on_node[h]))
     acc = jnp.where((node <= h)[:, None], acc, 0.0)
     safe_len = jnp.where(kin.lengths > 0, kin.lengths, 1.0)
     domega = jnp.sum((acc[:-1] - acc[1:]) * kin.p, -1) / safe_len
@@ -373,13 +372,18 @@ def chain_accelerations_dense(state: ChainState, kin: ChainKinematics, forces, s
     ).lengths
     m = kin.masses
 
+    frozen = lengths_of(state.deployed)
+    free_link = jnp.arange(1, n + 1) <= K
+
     def positions(q, S):
         r0 = q[:2]
         th = q[2:]
         ref = th[-1] if K > 0 else theta_launch
         th_all = jnp.concatenate([th, jnp.full((n - K,), ref)]) if K < n else th
         u, _ = unit_vectors(th_all)
-        r = r0 - jnp.cumsum(lengths_of(S)[:, None] * u, axis=0)
+        # links with their own angle keep their length (material points); only the welded tail grows
+        L = jnp.where(free_link, frozen, lengths_of(S))
+        r = r0 - jnp.cumsum(L[:, None] * u, axis=0)
         return jnp.concatenate([r0[None], r], 0).reshape(-1)
 
     q = jnp.concatenate([state.r0, state.theta[:K]])
