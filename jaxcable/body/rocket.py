@@ -24,6 +24,8 @@ class PointRocket(eqx.Module):
         burn_time_s: motor burn time [s].
         diameter_m: body diameter; reference area ``pi d^2 / 4`` [m].
         drag_coefficient: drag coefficient on the reference area [-].
+        axis_blend_speed_mps: speed scale over which the rocket axis turns from the launcher's
+            direction to its velocity (weathercocking needs airspeed) [m/s] (static).
     """
 
     mass_kg: Float[Array, ""]
@@ -32,6 +34,7 @@ class PointRocket(eqx.Module):
     burn_time_s: Float[Array, ""]
     diameter_m: Float[Array, ""]
     drag_coefficient: Float[Array, ""]
+    axis_blend_speed_mps: float = eqx.field(static=True, default=10.0)
 
     def __check_init__(self):
         check_positive("rocket.mass_kg", self.mass_kg)
@@ -63,12 +66,21 @@ class PointRocket(eqx.Module):
         """Thrust [N]: ``total_impulse / burn_time`` during the burn, zero after."""
         return jnp.where(t < self.burn_time_s, self.total_impulse_Ns / self.burn_time_s, 0.0)
 
+    def axis(self, velocity, launch_direction):
+        """Unit vector of the rocket axis: the launcher's direction at rest, the velocity at speed.
+
+        The paper takes the axis along the velocity. Taken literally from rest that is ill-posed:
+        with thrust along a velocity that starts at zero, gravity turns the heading by
+        ``(g cos(angle) / a) ln t`` as ``t -> 0``, so the result depends on the solver's first step.
+        Blending with the launch direction over ``axis_blend_speed_mps`` (the launcher sets the axis;
+        weathercocking aligns it once there is airspeed) bounds the early heading change at about
+        ``g cos(angle) / a`` (about 1 deg here) and makes the start well posed.
+        """
+        return safe_normalize(velocity + self.axis_blend_speed_mps * launch_direction, launch_direction)
+
     def thrust(self, t, velocity, launch_direction):
-        """Thrust vector [N] along the velocity (the launch direction while at rest)."""
-        # A 1 um/s blend with the launch direction keeps the direction defined (and its gradient
-        # finite) at the start, when the velocity is zero.
-        axis = safe_normalize(velocity + 1e-6 * launch_direction, launch_direction)
-        return self.thrust_magnitude(t) * axis
+        """Thrust vector [N] along the rocket axis (see :meth:`axis`)."""
+        return self.thrust_magnitude(t) * self.axis(velocity, launch_direction)
 
 
 def paper_rocket(drag_coefficient=0.5) -> PointRocket:

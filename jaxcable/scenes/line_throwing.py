@@ -73,7 +73,7 @@ class ThrowProbe(eqx.Module):
     position: Array  # rocket (x, y) [m]
     velocity: Array  # rocket (vx, vy) [m/s]
     speed: Array  # [m/s]
-    acceleration: Array  # rocket acceleration along its velocity [m/s^2]
+    acceleration: Array  # rocket acceleration along its axis (the velocity once flying) [m/s^2]
     rope_pull: Array  # force of the rope on the rocket [N]
     deployed: Array  # deployed rope length [m]
     kinetic_energy: Array  # [J]
@@ -136,11 +136,12 @@ class LineThrowingScene(AbstractScene):
 
     def default_save_ts(self, t1):
         grid = jnp.arange(0.0, t1, self.save_dt_s)
-        extra = jnp.stack([self.rocket.burn_time_s, 1.0, 2.0, 3.0, 4.0])
+        extra = jnp.minimum(jnp.stack([self.rocket.burn_time_s, 1.0, 2.0, 3.0, 4.0]), t1)
         return jnp.sort(jnp.concatenate([grid, extra]))
 
     def default_snapshot_ts(self, t1):
-        return jnp.array([0.5, 1.0, 2.0, 3.0, 4.0, 6.0, 8.0])
+        # clipped to t1 (diffrax needs saved times inside [t0, t1]); repeated t1 entries are harmless
+        return jnp.minimum(jnp.array([0.5, 1.0, 2.0, 3.0, 4.0, 6.0, 8.0]), t1)
 
     def probe(self, t, state):
         kin = self.kinematics(t, state)
@@ -148,12 +149,13 @@ class LineThrowingScene(AbstractScene):
         a0, _ = chain_accelerations(kin, F, self.rope.segment_length_m)
         v = state.v0
         speed = jnp.sqrt(jnp.sum(v**2) + 1e-300)
+        axis = self.rocket.axis(v, self.launch.direction)
         pull = self.rocket.mass(t) * a0 - F[0]
         return ThrowProbe(
             position=state.r0,
             velocity=v,
             speed=speed,
-            acceleration=jnp.dot(a0, v) / speed,
+            acceleration=jnp.dot(a0, axis),
             rope_pull=jnp.sqrt(jnp.sum(pull**2) + 1e-300),
             deployed=state.deployed,
             kinetic_energy=kinetic_energy(kin),
