@@ -30,7 +30,7 @@ p.add_argument("--out", default="experiments/results/calibration.json")
 args = p.parse_args()
 
 jaxcable.enable_x64()
-sim_kw = dict(t1=30.0, solver="dopri5", rtol=1e-5, atol=1e-5)
+sim_kw = dict(t1=40.0, solver="tsit5", rtol=1e-5, atol=1e-5)
 scene = line_throwing_scene(
     30.0,
     segment_length_m=args.segment_length,
