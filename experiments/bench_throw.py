@@ -26,8 +26,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import platform
 import statistics
 import time
 from pathlib import Path
@@ -37,6 +35,7 @@ import jax
 import jax.numpy as jnp
 
 import jaxcable
+from jaxcable.provenance import machine_info
 from jaxcable.line.segments import (
     ChainState,
     chain_accelerations,
@@ -59,28 +58,6 @@ def parse_args():
     p.add_argument("--atol", type=float, default=1e-6)
     p.add_argument("--out", default=None, help="output folder (default experiments/results, or out/ with --quick)")
     return p.parse_args()
-
-
-def machine_info() -> dict:
-    cpu = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo") as f:
-            cpu = next(line.split(":", 1)[1].strip() for line in f if line.startswith("model name"))
-    except (OSError, StopIteration):
-        pass
-    dev = jax.devices()[0]
-    return {
-        "machine": platform.machine(),
-        "processor": cpu,
-        "cpu_count": os.cpu_count(),
-        "platform": platform.platform(),
-        "python": platform.python_version(),
-        "jax": jax.__version__,
-        "jax_backend": f"{dev.platform} ({dev.device_kind})",
-        "float64": bool(jax.config.jax_enable_x64),
-        "jaxcable": jaxcable.__version__,
-        "load_average_1_5_15_min": [round(x, 2) for x in os.getloadavg()],
-    }
 
 
 def per_call_seconds(fn, *args, min_total_s=0.2, repeats=5):

@@ -26,8 +26,6 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import os
-import platform
 import time
 from pathlib import Path
 
@@ -36,6 +34,7 @@ import jax.numpy as jnp
 import numpy as np
 
 import jaxcable
+from jaxcable.provenance import machine_info
 from jaxcable.scenes import line_throwing_scene, with_angle
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -57,28 +56,6 @@ def parse_args():
     p.add_argument("--loop", action="store_true", help="fly the angles one by one instead of jax.vmap")
     p.add_argument("--out", default=None, help="output folder (default: experiments/results, or out/ with --quick)")
     return p.parse_args()
-
-
-def machine_info() -> dict:
-    cpu = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo") as f:
-            cpu = next(line.split(":", 1)[1].strip() for line in f if line.startswith("model name"))
-    except (OSError, StopIteration):
-        pass
-    dev = jax.devices()[0]
-    return {
-        "machine": platform.machine(),
-        "processor": cpu,
-        "cpu_count": os.cpu_count(),
-        "platform": platform.platform(),
-        "python": platform.python_version(),
-        "jax": jax.__version__,
-        "jax_backend": f"{dev.platform} ({dev.device_kind})",
-        "float64": bool(jax.config.jax_enable_x64),
-        "jaxcable": jaxcable.__version__,
-        "load_average_1_5_15_min": [round(x, 2) for x in os.getloadavg()],
-    }
 
 
 def fly(scene, angle_rad, *, t1, solver, rtol, atol, snapshot_ts):

@@ -47,7 +47,7 @@ def _throw(args) -> int:
         print(f"  range            {out['range_m']:8.1f} m")
         print(f"  max speed        {out['max_speed_mps']:8.1f} m/s")
         print(f"  flight time      {out['flight_time_s']:8.2f} s")
-        print(f"  speed at 1-4 s   " + ", ".join(f"{x:.1f}" for x in v) + " m/s")
+        print("  speed at 1-4 s   " + ", ".join(f"{x:.1f}" for x in v) + " m/s")
         print(f"  max height       {out['max_height_m']:8.1f} m")
         print(f"  impact speed     {out['impact_speed_mps']:8.1f} m/s")
         print(f"  rope deployed    {out['deployed_rope_m']:8.1f} m in {out['n_segments']} segments")

@@ -280,7 +280,6 @@ def chain_accelerations(kin: ChainKinematics, forces, segment_length_m):
         segment_length_m: full segment length ``l`` [m].
     """
     n = kin.lengths.shape[0]
-    seg = segment_length_m
     K = kin.n_free
     k = kin.n_full
     m = kin.masses
