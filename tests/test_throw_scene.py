@@ -154,3 +154,13 @@ def test_command_line_json():
     assert data["solver_status"] == "event_occurred"
     bad = subprocess.run([sys.executable, "-m", "jaxcable.cli", "throw", "--angle", "120"], capture_output=True, text=True)
     assert bad.returncode != 0 and "--angle" in bad.stderr
+
+
+def test_command_line_report_and_plot(tmp_path):
+    png = tmp_path / "flight.png"
+    cmd = [sys.executable, "-m", "jaxcable.cli", "throw", "--segment-length", "10", "--plot", str(png)]
+    out = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stderr
+    assert "range" in out.stdout and "max speed" in out.stdout
+    assert png.exists() and png.stat().st_size > 10_000
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
