@@ -4,8 +4,6 @@ Checks run only on concrete values (Python or NumPy numbers, or concrete JAX arr
 ``jit``/``vmap``/``grad`` the values are tracers and are checked at the public entry points instead.
 """
 
-import math
-
 import jax
 import numpy as np
 
@@ -52,12 +50,3 @@ def check_range(name, value, low, high, inclusive=False, unit=""):
 def check_choice(name, value, choices):
     if value not in choices:
         raise ValueError(f"unknown {name} {value!r}; choose one of {sorted(choices)}")
-
-
-def check_int(name, value, minimum=1):
-    if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < minimum:
-        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
-
-
-def isclose(a, b):
-    return math.isclose(a, b, rel_tol=1e-12)

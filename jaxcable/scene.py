@@ -45,6 +45,18 @@ class AbstractScene(eqx.Module):
         """Times at which the vector field is discontinuous (array), or ``None``."""
         return None
 
+    def default_save_ts(self, t1):
+        """Times of the probe histories when the caller gives none [s]."""
+        import jax.numpy as jnp
+
+        return jnp.linspace(0.0, t1, 101)
+
+    def default_snapshot_ts(self, t1):
+        """Times of the snapshots when the caller gives none [s]."""
+        import jax.numpy as jnp
+
+        return jnp.reshape(jnp.asarray(t1, dtype=float), (1,))
+
     def probe(self, t, state):
         """Small PyTree saved on the output grid."""
         return state

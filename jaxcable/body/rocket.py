@@ -8,10 +8,11 @@ is told about through ``jump_ts``).
 
 import equinox as eqx
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float
 
 from .._math import safe_normalize
-from .._validation import check_positive
+from .._validation import _concrete, check_positive
 
 
 class PointRocket(eqx.Module):
@@ -43,15 +44,11 @@ class PointRocket(eqx.Module):
         check_positive("rocket.burn_time_s", self.burn_time_s)
         check_positive("rocket.diameter_m", self.diameter_m)
         check_positive("rocket.drag_coefficient", self.drag_coefficient, allow_zero=True)
-        try:
-            if float(self.propellant_mass_kg) >= float(self.mass_kg):
-                raise ValueError(
-                    f"rocket.propellant_mass_kg ({float(self.propellant_mass_kg)}) must be less than "
-                    f"rocket.mass_kg ({float(self.mass_kg)})"
-                )
-        except (TypeError, Exception) as e:  # tracers: skip
-            if isinstance(e, ValueError):
-                raise
+        prop, mass = _concrete(self.propellant_mass_kg), _concrete(self.mass_kg)
+        if prop is not None and mass is not None and np.any(prop >= mass):
+            raise ValueError(
+                f"rocket.propellant_mass_kg ({prop}) must be less than rocket.mass_kg ({mass})"
+            )
 
     @property
     def reference_area_m2(self):

@@ -453,12 +453,3 @@ def rope_vector_field(state: ChainState, rope: SegmentRope, rocket_mass, theta_l
 def kinetic_energy(kin: ChainKinematics):
     """Kinetic energy of rocket and rope [J] (material velocities)."""
     return 0.5 * jnp.sum(kin.masses * jnp.sum(kin.velocities**2, -1))
-
-
-def node_position_rates(kin: ChainKinematics):
-    """d(position)/dt of every node [m/s]: material velocity plus the ALE drift of the tail node."""
-    n = kin.lengths.shape[0]
-    drift = jnp.where(
-        (jnp.arange(n + 1) == kin.n_full + 1)[:, None], -kin.payout_rate * kin.tail_direction, 0.0
-    )
-    return kin.velocities + drift
