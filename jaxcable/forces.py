@@ -91,7 +91,7 @@ class Ground(AbstractForce):
 
     A node below the ground gets a mass-proportional penalty normal force, a spring-damper with
     natural rate ``rate_radps`` and damping ratio ``damping_ratio`` (so the sinking depth under its
-    own weight, ``g / rate^2`` = 4 mm at the default, is the same for every segment length), and a
+    own weight, ``g / rate^2`` = 2.5 cm at the default, is the same for every segment length), and a
     regularised Coulomb friction ``-mu N tanh(v_x / slip_speed_mps)`` that brings rope lying on the
     ground to rest and resists dragging it (``mu = friction_coefficient``). Contact switches on over
     ``width_m`` with a logistic step. The rocket (node 0) is excluded: its impact ends the flight.
@@ -101,11 +101,13 @@ class Ground(AbstractForce):
     gradients disagree with finite differences; the Coulomb form does not (see tests).
     """
 
-    rate_radps: float = eqx.field(static=True, default=50.0)
+    # Defaults chosen by measurement (30 deg flight, 2 m segments, dopri5 rtol 1e-5): a 50 rad/s,
+    # 5 mm contact took 1605 steps, this 20 rad/s, 5 cm one 963, and the range moved by 0.002%.
+    rate_radps: float = eqx.field(static=True, default=20.0)
     damping_ratio: float = eqx.field(static=True, default=1.0)
     friction_coefficient: float = eqx.field(static=True, default=0.5)
     slip_speed_mps: float = eqx.field(static=True, default=0.1)
-    width_m: float = eqx.field(static=True, default=0.005)
+    width_m: float = eqx.field(static=True, default=0.05)
 
     def node_forces(self, t, kin, scene):
         y = kin.positions[:, 1]
