@@ -49,8 +49,10 @@ Choices and corrections to the printed equations
   ``[r1, r2, s1, s2]``, while eq 27 orders ``q_e = [r1, s1, r2, s2]``. We use eq 27's order, so
   ``N_r`` is split: ``N = [(1-u) I3, dr/ds1, u I3, dr/ds2]``.
 * Strain: Green strain as in eq 31. For the paper's cable (EA = 2.64e8 N, stress <= 800 MPa,
-  eps <= 4e-3) Green and engineering strain differ by ``eps^2/2 < 1e-5``; for large stretch Green
-  strain stiffens (``N = EA (lambda^2 - 1)/2``), so do not use this element as a rubber band.
+  eps <= 4e-3) Green and engineering strain differ by ``eps^2/2 < 1e-5``. Note that ``EA eps`` is
+  the 2nd Piola-Kirchhoff force; the force the cable carries is ``EA eps |r'| = EA (lambda^2-1) lambda/2``
+  (``Q_E`` has it right through ``B r'``), so the small-strain axial wave speed is
+  ``sqrt(EA (3 lambda^2 - 1) / (2 rhoA))`` and large stretch stiffens: not a rubber-band model.
 * Tension-only switch ``k``: smoothed, and written as the derivative of an energy so that the
   undamped model conserves energy exactly: strain energy per material length
   ``EA psi(eps)``, ``psi = smooth_relu(eps, w)^2 / 2``, tension ``EA T(eps)``,
