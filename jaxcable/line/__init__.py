@@ -1,4 +1,6 @@
-"""Rope and cable models."""
+"""Rope and cable models: the finite-segment (Kane) rope and the ALE cable element."""
+
+from .ale import AleCable, AleState, ale_cable_vector_field, cable_energy
 
 from .segments import (
     ChainKinematics,
@@ -12,6 +14,10 @@ from .segments import (
 )
 
 __all__ = [
+    "AleCable",
+    "AleState",
+    "ale_cable_vector_field",
+    "cable_energy",
     "ChainKinematics",
     "ChainState",
     "SegmentRope",
