@@ -2,6 +2,7 @@
 uses, runs it in float64, and prints a short report or one JSON object (``--json``).
 
     jaxcable throw [--angle DEG] [--segment-length M] [--plot PATH] [--json]
+    jaxcable land  [--fidelity 1dof|rigid|ale|full] [--x M --y M --vz M/S ...] [--plot PATH] [--json]
 """
 
 from __future__ import annotations
@@ -58,6 +59,58 @@ def _throw(args) -> int:
     return 0 if ok else 1
 
 
+def _land(args) -> int:
+    from .arresting.buffer import BufferDevice
+    from .arresting.landing import plot_landing, report_landing, run_landing
+    from .arresting.layout import CaptureState
+
+    try:
+        capture = CaptureState(
+            x_m=args.x,
+            y_m=args.y,
+            vx_m_s=args.vx,
+            vy_m_s=args.vy,
+            vz_m_s=args.vz,
+            theta_x_deg=args.theta_x,
+            theta_y_deg=args.theta_y,
+            theta_z_deg=args.theta_z,
+            omega_x_deg_s=args.omega_x,
+            omega_y_deg_s=args.omega_y,
+            omega_z_deg_s=args.omega_z,
+        )
+        buffer = BufferDevice(counterweight_mass_kg=args.counterweight_mass, brake_force_N=args.brake_force)
+        run = run_landing(
+            args.fidelity, capture, buffer=buffer, t_end_s=args.t_end, solver=args.solver, rtol=args.rtol
+        )
+    except ValueError as err:
+        print(f"jaxcable land: error: {err}", file=sys.stderr)
+        return 2
+    out = report_landing(run)
+    if args.plot:
+        plot_landing(run, args.plot)
+        out["plot"] = args.plot
+    if args.json:
+        print(json.dumps(out))
+    else:
+        yes = {True: "yes", False: "NO"}
+        print(f"passive deceleration, fidelity {run.fidelity}")
+        print(f"  z_max        {out['z_max_m']:8.3f} m     (< 10 m: {yes[out['z_ok']]})")
+        print(f"  a_max        {out['a_max_g']:8.3f} g     (< 5 g: {yes[out['a_ok']]}; g = 9.80 m/s^2)")
+        print(f"  sigma_max    {out['sigma_max_mpa']:8.1f} MPa   (< 800 MPa: {yes[out['sigma_ok']]})")
+        st = out["stop_time_s"]
+        print(f"  stop time    {st:8.3f} s" if st is not None else "  stop time    not stopped")
+        print(f"  criteria met {yes[out['criteria_met']]}")
+        print("  energy budget, change since capture [kJ]:")
+        for k, v in out["energy_budget_J"].items():
+            print(f"    {k:28s} {v / 1e3:10.1f}")
+        print(f"  budget closes to {out['energy_budget_error']:.2e} of the input energy")
+        print(f"  solver       {out['solver_status']} ({out['num_steps']} steps)")
+        if args.plot:
+            print(f"  plot written to {args.plot}")
+    ok = out["solver_status"] in ("successful", "event_occurred")
+    return 0 if ok else 1
+
+
 def _angle(text):
     value = float(text)
     if not 0.0 < value < 90.0:
@@ -92,6 +145,31 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--plot", metavar="PATH", help="write a PNG of trajectory, speed and rope shapes")
     t.add_argument("--json", action="store_true", help="print one JSON object")
     t.set_defaults(func=_throw)
+
+    la = sub.add_parser("land", help="one passive-deceleration landing (Table 1 defaults, design case)")
+    la.add_argument("--fidelity", choices=["1dof", "rigid", "ale", "full"], default="full", help="model level (default full)")
+    for flag, unit, default, what in (
+        ("--x", "m", 0.0, "capture position of the hook-plane centre O"),
+        ("--y", "m", 0.0, "capture position of O"),
+        ("--vx", "m/s", 0.0, "velocity of O"),
+        ("--vy", "m/s", 0.0, "velocity of O"),
+        ("--vz", "m/s", -20.0, "vertical velocity of O, z up (default -20: 20 m/s down)"),
+        ("--theta-x", "deg", 0.0, "rotation vector component (inclination)"),
+        ("--theta-y", "deg", 0.0, "rotation vector component (inclination)"),
+        ("--theta-z", "deg", 0.0, "rotation vector component (roll), |theta_z| < 45"),
+        ("--omega-x", "deg/s", 0.0, "angular velocity"),
+        ("--omega-y", "deg/s", 0.0, "angular velocity"),
+        ("--omega-z", "deg/s", 0.0, "angular velocity"),
+    ):
+        la.add_argument(flag, type=float, default=default, help=f"{what} [{unit}] (default {default:g})")
+    la.add_argument("--counterweight-mass", type=float, default=920.0, help="m_w, one counterweight [kg] (Table 1: 920)")
+    la.add_argument("--brake-force", type=float, default=3.13e5, help="F_f, one brake [N] (Table 1: 3.13e5)")
+    la.add_argument("--t-end", type=_positive("--t-end"), default=2.0, help="time simulated after capture [s] (default 2)")
+    la.add_argument("--solver", choices=sorted(SOLVERS), default=None, help="diffrax solver (default per level)")
+    la.add_argument("--rtol", type=_positive("--rtol"), default=None, help="relative = absolute tolerance (default per level)")
+    la.add_argument("--plot", metavar="PATH", help="write a PNG like the paper's Fig 11")
+    la.add_argument("--json", action="store_true", help="print one JSON object")
+    la.set_defaults(func=_land)
     return parser
 
 

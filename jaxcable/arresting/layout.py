@@ -117,6 +117,8 @@ class CaptureState(eqx.Module):
 
     x_m: jax.Array = eqx.field(converter=jnp.asarray, default=0.0)
     y_m: jax.Array = eqx.field(converter=jnp.asarray, default=0.0)
+    z_m: jax.Array = eqx.field(converter=jnp.asarray, default=0.0)
+    """Height of O [m]; scene builders set it so the engaged throats sit on the top plane."""
     vx_m_s: jax.Array = eqx.field(converter=jnp.asarray, default=0.0)
     vy_m_s: jax.Array = eqx.field(converter=jnp.asarray, default=0.0)
     vz_m_s: jax.Array = eqx.field(converter=jnp.asarray, default=-20.0)
@@ -138,7 +140,7 @@ class CaptureState(eqx.Module):
 
     @property
     def position(self):
-        return jnp.stack([self.x_m, self.y_m, jnp.zeros_like(self.x_m)])
+        return jnp.stack([self.x_m, self.y_m, self.z_m])
 
     @property
     def velocity(self):

@@ -1,0 +1,350 @@
+r"""The four arresting cables as one scene component, at two fidelities behind one interface.
+
+* :class:`MasslessCables` (level ``rigid``): each cable is massless and elastic; its arresting span
+  runs as two straight legs from the slider pulleys through the throat point of its hook, its outer
+  strands (tower, ground pulley, moving block) only add length. One tension per cable,
+  ``T = EA psi'(e)`` with engineering strain ``e = ell / L - 1`` (tension only, smoothed as in
+  :mod:`jaxcable.line.ale`), path length ``ell = |C - P_A| + |P_B - C| + ell_out0 - 2 u``. The
+  buffer's block coordinate ``u`` is the only state of a cable: ``m_w alpha^2 u'' = 2 T - alpha (m_w g
+  + F_brake)``.
+* :class:`AleCables` (levels ``ale`` and ``full``): each cable is a :class:`CableSubsystem` (ALE
+  elements over pulleys, consistent mass, buffer) and touches the hooks through the Hertz/Coulomb
+  contact of :mod:`jaxcable.arresting.contact`, checked between every hook capsule (arm, barb) and
+  every element of every arresting span.
+
+Interface (what the scene uses): ``initial_state(hooks)``, ``respond(state, hooks)`` ->
+``(hook_point_forces (4, 3, 3) [N] at each hook's (hinge, tip, barb end), d state/dt, aux)`` and
+``energies(state, hooks)``. ``hooks`` is a :class:`HookPoints` (world positions/velocities of each
+hook's three points). ``aux`` carries ``tension_max_N``, ``hook_normal_force_N`` (4,),
+``counterweight_rise_m`` (4,).
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .._math import smooth_relu
+from ..line.ale import AleCable, axial_tension_factor, strain_energy_density
+from .buffer import BufferDevice
+from .cables import CableCoords, CableRoute, CableState, CableSubsystem, graded_fractions
+from .layout import HOOK_OF_CABLE, ArrestingLayout, span_endpoints
+
+__all__ = ["AleCables", "HookPoints", "MasslessCables", "throat_weights"]
+
+
+class HookPoints(eqx.Module):
+    """World positions and velocities of the hooks' points: (4 hooks, 3 points, 3) [m], [m/s].
+    Points: 0 hinge, 1 tip, 2 barb end."""
+
+    positions: jax.Array
+    velocities: jax.Array
+
+
+def throat_weights(hinge, tip, barb_end, clearance):
+    """Affine weights (3,) of the throat point C on (hinge, tip, barb end): C lies ``clearance`` [m]
+    below the arm and inside the barb, so a cable of that (hook + cable) radius sits in the throat
+    touching both. Affine combinations of body points are body points, and a force at C equals the
+    same weights times the force at the three points (same resultant and moment)."""
+    a = hinge - tip
+    b = barb_end - tip
+    a_hat = a / jnp.linalg.norm(a)
+    b_hat = b / jnp.linalg.norm(b)
+    alpha1 = clearance / jnp.linalg.norm(jnp.cross(a, b_hat))
+    alpha2 = clearance / jnp.linalg.norm(jnp.cross(b, a_hat))
+    return jnp.stack([alpha1, 1.0 - alpha1 - alpha2, alpha2])
+
+
+def _engaged_throats(hooks: HookPoints, weights):
+    """Throat positions/velocities of the hook engaged by each cable: (4, 3)."""
+    order = np.array(HOOK_OF_CABLE)
+    pos = jnp.einsum("j,kjd->kd", weights, hooks.positions[order])
+    vel = jnp.einsum("j,kjd->kd", weights, hooks.velocities[order])
+    return pos, vel
+
+
+# ------------------------------------------------------------------------------------------------
+# Level "rigid": massless elastic cables
+# ------------------------------------------------------------------------------------------------
+
+
+class MasslessState(eqx.Module):
+    u: jax.Array
+    """(4,) block travel of each buffer [m] (counterweight rise alpha u)."""
+    udot: jax.Array
+    """(4,) [m/s]."""
+    dissipated: jax.Array
+    """() energy dissipated by the four brakes [J]."""
+
+
+class MasslessCables(eqx.Module):
+    """Four massless elastic cables through the hooks' throats, with their buffer devices."""
+
+    layout: ArrestingLayout
+    buffer: BufferDevice
+    span_ends: jax.Array
+    """(4, 2, 3) slider-pulley positions [m]."""
+    throat_w: jax.Array
+    """(3,) affine weights of the throat point on (hinge, tip, barb end)."""
+    unstretched_m: jax.Array
+    """(4,) material length of each cable [m] (set from the capture geometry and pre-tension)."""
+    outer_m: jax.Array
+    """(4,) geometric length of the outer strands at u = 0 [m]."""
+    slack_width: float = eqx.field(static=True, default=1e-6)
+    gravity_m_s2: float = eqx.field(static=True, default=9.81)
+
+    @classmethod
+    def build(cls, layout, buffer, frame_centre_xy, hooks0: HookPoints, throat_w, slack_width=1e-6):
+        ends, _ = span_endpoints(layout, frame_centre_xy)
+        c, _ = _engaged_throats(hooks0, throat_w)
+        span = jnp.linalg.norm(c - ends[:, 0], axis=1) + jnp.linalg.norm(ends[:, 1] - c, axis=1)
+        H, D, l0 = layout.tower_height_m, layout.block_strand_m, layout.half_span_m
+        outer = 2.0 * (jnp.sqrt(l0**2 + H**2) + D) * jnp.ones(4)
+        strain0 = layout.pretension_N / layout.EA_N
+        unstretched = (span + outer) / (1.0 + strain0)
+        return cls(layout, buffer, ends, throat_w, unstretched, outer, slack_width)
+
+    def initial_state(self):
+        z = jnp.zeros(4)
+        return MasslessState(u=z, udot=z, dissipated=jnp.zeros(()))
+
+    def _lengths(self, u, throat):
+        legs = jnp.linalg.norm(self.span_ends[:, 0] - throat, axis=1) + jnp.linalg.norm(
+            self.span_ends[:, 1] - throat, axis=1
+        )
+        return legs + self.outer_m - 2.0 * u
+
+    def _strain(self, u, throat):
+        return self._lengths(u, throat) / self.unstretched_m - 1.0
+
+    def tensions(self, state, hooks):
+        throat, _ = _engaged_throats(hooks, self.throat_w)
+        strain = self._strain(state.u, throat)
+        return self.layout.EA_N * axial_tension_factor(strain, self.slack_width)
+
+    def respond(self, state: MasslessState, hooks: HookPoints):
+        throat, _ = _engaged_throats(hooks, self.throat_w)
+        tension = self.layout.EA_N * axial_tension_factor(self._strain(state.u, throat), self.slack_width)
+        d_a = self.span_ends[:, 0] - throat
+        d_b = self.span_ends[:, 1] - throat
+        pull = tension[:, None] * (
+            d_a / jnp.linalg.norm(d_a, axis=1, keepdims=True) + d_b / jnp.linalg.norm(d_b, axis=1, keepdims=True)
+        )  # (4 cables, 3) force on each engaged hook's throat
+        forces = jnp.zeros((4, 3, 3)).at[np.array(HOOK_OF_CABLE)].set(self.throat_w[None, :, None] * pull[:, None, :])
+        b = self.buffer
+        m_eff = b.counterweight_mass_kg * b.transfer_rate**2
+        udd = (
+            2.0 * tension
+            + b.generalized_force(state.udot)
+            - b.transfer_rate * b.counterweight_mass_kg * self.gravity_m_s2
+        ) / m_eff
+        dstate = MasslessState(u=state.udot, udot=udd, dissipated=jnp.sum(b.brake_power(state.udot)))
+        normal = jnp.zeros(4).at[np.array(HOOK_OF_CABLE)].set(jnp.linalg.norm(pull, axis=1))
+        aux = dict(
+            tension_max_N=jnp.max(tension),
+            hook_normal_force_N=normal,
+            counterweight_rise_m=b.transfer_rate * state.u,
+        )
+        return forces, dstate, aux
+
+    def energies(self, state: MasslessState, hooks: HookPoints):
+        throat, _ = _engaged_throats(hooks, self.throat_w)
+        strain = self._strain(state.u, throat)
+        b = self.buffer
+        elastic = jnp.sum(self.layout.EA_N * self.unstretched_m * strain_energy_density(strain, self.slack_width))
+        return dict(
+            cable_kinetic=jnp.sum(b.kinetic_energy(state.udot)),
+            cable_elastic=elastic,
+            cable_gravity=jnp.zeros(()),
+            counterweight_potential=jnp.sum(b.potential_energy(state.u, self.gravity_m_s2)),
+            dissipated_brakes_damping=state.dissipated,
+        )
+
+
+# ------------------------------------------------------------------------------------------------
+# Levels "ale" and "full": ALE cables over pulleys, hook-cable contact
+# ------------------------------------------------------------------------------------------------
+
+
+class AleCables(eqx.Module):
+    """Four ALE cables (stacked: every array leaf of ``subsystems`` has a leading axis of 4) and the
+    hook-cable contact law."""
+
+    subsystems: CableSubsystem
+    contact: eqx.Module
+    """A :class:`jaxcable.arresting.contact.ContactLaw`."""
+    hook_radius_m: jax.Array
+    cable_radius_m: jax.Array
+    q0: CableCoords
+    """Stacked initial coordinates (4, ...)."""
+    span_slice: tuple = eqx.field(static=True)
+    """(first, last+1) element indices of the arresting span within a cable's element list."""
+
+    @classmethod
+    def build(
+        cls,
+        layout: ArrestingLayout,
+        buffer: BufferDevice,
+        contact,
+        frame_centre_xy,
+        hooks0: HookPoints,
+        throat_w,
+        hook_radius_m,
+        n_span_elements: int = 24,
+        n_fine: int = 12,
+        fine_half_width_m: float = 3.0,
+        n_tower_elements: int = 2,
+        damping_s: float = 1e-4,
+        slack_width: float = 1e-6,
+        gravity=(0.0, 0.0, -9.81),
+    ):
+        """Routes, initial drape and mesh of the four cables (concrete inputs: runs outside jit).
+
+        The arresting span is draped straight from each slider pulley to the throat point of its
+        hook (the capture state), meshed with ``n_fine`` equal elements over +-``fine_half_width_m``
+        around the throat and the rest coarse; towers get ``n_tower_elements``, block strands one.
+        Material coordinates are set for a uniform pre-tension.
+        """
+        ends, _ = span_endpoints(layout, frame_centre_xy)
+        throats, _ = _engaged_throats(hooks0, throat_w)
+        H, D = layout.tower_height_m, layout.block_strand_m
+        EA = float(layout.EA_N)
+        T0 = float(layout.pretension_N)
+        # Green strain eps with force EA eps lambda = T0 (see jaxcable.line.ale): solve for lambda.
+        lam = 1.0
+        for _ in range(20):
+            f = EA * 0.5 * (lam**2 - 1.0) * lam - T0
+            lam -= f / (EA * (1.5 * lam**2 - 0.5))
+        subs, q0s = [], []
+        for k in range(4):
+            pa, pb, c = (np.asarray(x, float) for x in (ends[k, 0], ends[k, 1], throats[k]))
+            mid = 0.5 * (pa + pb)
+            ground = np.array([mid[0], mid[1], -float(H)])
+            block = ground - np.array([0.0, 0.0, float(D)])
+            pts = np.stack([block, ground, pa, pb, ground, block])
+            leg_a, leg_b = np.linalg.norm(c - pa), np.linalg.norm(pb - c)
+            geo = [float(D), np.linalg.norm(pa - ground), leg_a + leg_b, np.linalg.norm(ground - pb), float(D)]
+            s_b = np.concatenate([[0.0], np.cumsum(geo)]) / lam
+            span_mat = (leg_a + leg_b) / lam
+            frac_span = graded_fractions(
+                n_span_elements, leg_a / lam, fine_half_width_m, n_fine, span_mat
+            )
+            fractions = (
+                np.zeros(0),
+                np.linspace(0, 1, n_tower_elements + 1)[1:-1],
+                frac_span,
+                np.linspace(0, 1, n_tower_elements + 1)[1:-1],
+                np.zeros(0),
+            )
+            route = CableRoute(
+                boundary_points=jnp.asarray(pts),
+                s_boundary0=jnp.asarray(s_b),
+                fractions=tuple(jnp.asarray(f) for f in fractions),
+                block_direction=jnp.array([0.0, 0.0, 1.0]),
+                kinds=("end", "pulley", "pulley", "pulley", "pulley", "end"),
+                moving=(True, False, False, False, False, True),
+            )
+            cable = AleCable(
+                EA_N=layout.EA_N, rhoA_kg_per_m=layout.rhoA_kg_per_m, damping_s=damping_s, slack_width=slack_width
+            )
+            subs.append(CableSubsystem(route=route, cable=cable, buffer=buffer, gravity=jnp.asarray(gravity)))
+            # internal node positions: straight spans; the arresting span along the drape P_A-C-P_B
+            r_int = []
+            for j, f in enumerate(fractions):
+                for fi in f:
+                    if j == 2:
+                        d = fi * (leg_a + leg_b)
+                        r_int.append(pa + (c - pa) * d / leg_a if d <= leg_a else c + (pb - c) * (d - leg_a) / leg_b)
+                    else:
+                        r_int.append(pts[j] + fi * (pts[j + 1] - pts[j]))
+            q0s.append(CableCoords(r=jnp.asarray(np.array(r_int)), s=jnp.asarray(s_b[1:-1]), u=jnp.zeros(())))
+        stacked = jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *subs)
+        q0 = jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *q0s)
+        first = 1 + (n_tower_elements)
+        return cls(
+            subsystems=stacked,
+            contact=contact,
+            hook_radius_m=jnp.asarray(hook_radius_m),
+            cable_radius_m=layout.cable_radius_m,
+            q0=q0,
+            span_slice=(first, first + n_span_elements),
+        )
+
+    def initial_state(self):
+        zero = jax.tree_util.tree_map(jnp.zeros_like, self.q0)
+        return CableState(q=self.q0, qdot=zero, dissipated=jnp.zeros(4))
+
+    def _one_cable(self, sub: CableSubsystem, q, qdot, hooks: HookPoints):
+        from .contact import capsule_contact
+
+        (r, s), (v, sd) = jax.jvp(sub.route.nodes, (q,), (qdot,))
+        lo, hi = self.span_slice
+        r1, r2 = r[lo:hi], r[lo + 1 : hi + 1]
+        tangent = (r2 - r1) / (s[lo + 1 : hi + 1] - s[lo:hi])[:, None]
+        a1 = v[lo:hi] - tangent * sd[lo:hi, None]  # material velocities at element ends
+        a2 = v[lo + 1 : hi + 1] - tangent * sd[lo + 1 : hi + 1, None]
+        # hook capsules: arm (hinge -> tip), barb (tip -> barb end): (4 hooks, 2 capsules, 2 ends, 3)
+        P, V = hooks.positions, hooks.velocities
+        caps_p = jnp.stack([P[:, 0:2], P[:, 1:3]], axis=1)
+        caps_v = jnp.stack([V[:, 0:2], V[:, 1:3]], axis=1)
+
+        def pair(cp, cv, e1, e2, va, vb):
+            res = capsule_contact(
+                self.contact, cp[0], cp[1], self.hook_radius_m, cv[0], cv[1], e1, e2, self.cable_radius_m, va, vb
+            )
+            return res
+
+        over_elements = jax.vmap(pair, in_axes=(None, None, 0, 0, 0, 0))
+        over_caps = jax.vmap(over_elements, in_axes=(0, 0, None, None, None, None))
+        over_hooks = jax.vmap(over_caps, in_axes=(0, 0, None, None, None, None))
+        res = over_hooks(caps_p, caps_v, r1, r2, a1, a2)  # leaves: (4, 2, n_el, ...)
+        f_cable = jnp.sum(res.force_on_cable_nodes, axis=(0, 1))  # (n_el, 2, 3)
+        n_el_total = r.shape[0] - 1
+        element_forces = jnp.zeros((n_el_total, 2, 3)).at[lo:hi].set(f_cable)
+        gen = sub.material_point_forces(q, element_forces)
+        f_hook_caps = jnp.sum(res.force_on_hook_points, axis=2)  # (4 hooks, 2 caps, 2 ends, 3)
+        f_hook = jnp.zeros((4, 3, 3))
+        f_hook = f_hook.at[:, 0:2].add(f_hook_caps[:, 0]).at[:, 1:3].add(f_hook_caps[:, 1])
+        normal = jnp.sum(res.normal_force, axis=(1, 2))  # (4,) per hook
+        # contact power on both sides (for the energy budget): sum F.v at the application points
+        power = jnp.sum(element_forces[lo:hi, 0] * a1) + jnp.sum(element_forces[lo:hi, 1] * a2)
+        power = power + jnp.sum(f_hook * V)
+        return gen, f_hook, normal, power
+
+    def respond(self, state: CableState, hooks: HookPoints):
+        def one(sub, q, qdot):
+            gen, f_hook, normal, power = self._one_cable(sub, q, qdot, hooks)
+            qdd = sub.accelerations(q, qdot, gen)
+            diss = sub.dissipated_power(q, qdot)
+            tension = jnp.max(sub.tensions(q))
+            return qdd, diss, f_hook, normal, power, tension
+
+        qdd, diss, f_hook, normal, power, tension = jax.vmap(one)(self.subsystems, state.q, state.qdot)
+        dstate = CableState(q=state.qdot, qdot=qdd, dissipated=diss)
+        aux = dict(
+            tension_max_N=jnp.max(tension),
+            hook_normal_force_N=jnp.sum(normal, axis=0),
+            counterweight_rise_m=self.subsystems.buffer.transfer_rate * state.q.u,
+            contact_power_W=jnp.sum(power),
+        )
+        return jnp.sum(f_hook, axis=0), dstate, aux
+
+    def energies(self, state: CableState, hooks: HookPoints):
+        def one(sub, q, qdot):
+            e, g, c = sub.potential_parts(q)
+            return sub.kinetic_energy(q, qdot), e, g, c
+
+        kin, el, gr, cw = jax.vmap(one)(self.subsystems, state.q, state.qdot)
+        return dict(
+            cable_kinetic=jnp.sum(kin),
+            cable_elastic=jnp.sum(el),
+            cable_gravity=jnp.sum(gr),
+            counterweight_potential=jnp.sum(cw),
+            dissipated_brakes_damping=jnp.sum(state.dissipated),
+        )
+
+    def stresses_max(self, state: CableState):
+        t = jax.vmap(lambda sub, q: jnp.max(sub.tensions(q)))(self.subsystems, state.q)
+        return jnp.max(t)

@@ -1,0 +1,216 @@
+"""One passive-deceleration landing at any fidelity level: run it, report the shared outputs.
+
+:func:`run_landing` is the entry point the command line (``jaxcable land``) and the experiments use.
+The ``1dof`` level runs :func:`jaxcable.arresting.one_dof.simulate_one_dof` (vertical central
+landing only); the other levels build :func:`passive_landing_scene` and integrate it with
+:func:`jaxcable.simulate`. Default solver settings per level are in ``LEVEL_DEFAULTS`` with the
+measurement behind each (``experiments/bench_land.py``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import jax.numpy as jnp
+import numpy as np
+
+from .._validation import check_choice
+from .buffer import BufferDevice
+from .layout import ArrestingLayout, CaptureState
+from .passive import FIDELITY_LEVELS, G_CRITERIA, LandingCriteria, passive_landing_scene
+
+__all__ = ["LEVEL_DEFAULTS", "LandingRun", "report_landing", "run_landing"]
+
+LEVEL_DEFAULTS = {
+    # level: (solver, rtol, atol, max_steps)
+    "rigid": ("tsit5", 1e-6, 1e-6, 200_000),
+    "ale": ("tsit5", 1e-5, 1e-5, 400_000),
+    "full": ("tsit5", 1e-5, 1e-5, 400_000),
+}
+
+
+@dataclasses.dataclass
+class LandingRun:
+    """Outputs of one landing: ``outputs`` (dict of floats/bools), histories ``ts`` [s] and
+    ``probes`` (dict of arrays), the fidelity level and the solver's report."""
+
+    fidelity: str
+    outputs: dict
+    ts: np.ndarray
+    probes: dict
+    solver_status: str
+    num_steps: int
+    result: object = None
+
+
+def run_landing(
+    fidelity: str = "full",
+    capture: CaptureState | None = None,
+    layout: ArrestingLayout | None = None,
+    buffer: BufferDevice | None = None,
+    *,
+    t_end_s: float = 2.0,
+    solver: str | None = None,
+    rtol: float | None = None,
+    atol: float | None = None,
+    max_steps: int | None = None,
+    criteria: LandingCriteria = LandingCriteria(),
+    **scene_kwargs,
+) -> LandingRun:
+    """Run one passive-deceleration case (default: the design case, Table 1) and report it."""
+    from .. import enable_x64
+
+    enable_x64()
+    check_choice("fidelity", fidelity, FIDELITY_LEVELS)
+    capture = CaptureState() if capture is None else capture
+    layout = ArrestingLayout() if layout is None else layout
+    buffer = BufferDevice() if buffer is None else buffer
+    if fidelity == "1dof":
+        return _run_one_dof(capture, layout, buffer, t_end_s, criteria)
+    from ..simulate import simulate
+
+    scene = passive_landing_scene(fidelity, capture, layout, buffer, t_end_s=t_end_s, **scene_kwargs)
+    d_solver, d_rtol, d_atol, d_steps = LEVEL_DEFAULTS[fidelity]
+    result = simulate(
+        scene,
+        t_end_s,
+        solver=solver or d_solver,
+        rtol=rtol or d_rtol,
+        atol=atol or (rtol or d_atol),
+        max_steps=max_steps or d_steps,
+    )
+    out = {k: np.asarray(v).item() for k, v in result.outputs.items() if k != "status"}
+    out["solver_status"] = result.status_message
+    out["num_steps"] = int(result.num_steps)
+    probes = {k: np.asarray(v) for k, v in result.probes.items() if k != "energy"}
+    probes["energy"] = {k: np.asarray(v) for k, v in result.probes["energy"].items()}
+    out["energy_budget_J"] = _budget_at_end(np.asarray(result.ts), probes["energy"])
+    return LandingRun(fidelity, out, np.asarray(result.ts), probes, result.status_message, out["num_steps"], result)
+
+
+def _budget_at_end(ts, energy):
+    last = int(np.max(np.nonzero(np.isfinite(ts))[0]))
+    return {k: float(v[last] - v[0]) for k, v in energy.items()}
+
+
+def _run_one_dof(capture, layout, buffer, t_end_s, criteria):
+    from .one_dof import OneDofParams, simulate_one_dof
+
+    lateral = {
+        k: float(getattr(capture, k))
+        for k in ("x_m", "y_m", "vx_m_s", "vy_m_s", "theta_x_deg", "theta_y_deg", "omega_x_deg_s", "omega_y_deg_s")
+        if float(getattr(capture, k)) != 0.0
+    }
+    if lateral:
+        raise ValueError(
+            f"fidelity '1dof' models the vertical central landing only; got nonzero {lateral}: "
+            "use --fidelity rigid, ale or full"
+        )
+    from ..body.landing_rocket import ROCKET_MASS_KG
+
+    params = OneDofParams(
+        m_r=ROCKET_MASS_KG,
+        v0=-float(capture.vz_m_s),
+        l_0=layout.half_span_m,
+        alpha=buffer.transfer_rate,
+        m_w=buffer.counterweight_mass_kg,
+        F_f=buffer.brake_force_N,
+        cable_radius=layout.cable_radius_m,
+    )
+    sol = simulate_one_dof(params, t1=t_end_s)
+    z_max, a_max, s_max = float(sol.z_max), float(sol.a_max), float(sol.sigma_max)
+    out = dict(
+        z_max_m=z_max,
+        a_max_g=a_max,
+        sigma_max_mpa=s_max,
+        stop_time_s=float(sol.t_stop),
+        stopped=bool(sol.stopped),
+        z_ok=z_max < criteria.z_max_m,
+        a_ok=a_max < criteria.a_max_g,
+        sigma_ok=s_max < criteria.sigma_max_mpa,
+        energy_budget_error=float(sol.energy_error),
+        solver_status="successful",
+        num_steps=0,
+    )
+    out["criteria_met"] = out["z_ok"] and out["a_ok"] and out["sigma_ok"]
+    last = -1
+    out["energy_budget_J"] = dict(
+        rocket_kinetic=float(0.5 * params.m_r * (sol.velocity[last] ** 2 - sol.velocity[0] ** 2)),
+        rocket_gravitational=-float(sol.rocket_potential[last]),
+        counterweight=float(sol.counterweight_potential[last]),
+        dissipated_brakes_damping=float(sol.friction_work[last]),
+    )
+    n = sol.t.shape[0]
+    probes = dict(
+        drop_m=np.asarray(sol.z),
+        velocity_m_s=np.stack([np.zeros(n), np.zeros(n), -np.asarray(sol.velocity)], 1),
+        acceleration_m_s2=np.stack([np.zeros(n), np.zeros(n), -np.asarray(sol.acceleration)], 1),
+        stress_max_pa=np.asarray(sol.stress),
+        counterweight_rise_m=np.repeat(np.asarray(sol.w)[:, None], 4, 1),
+    )
+    return LandingRun("1dof", out, np.asarray(sol.t), probes, "successful", 0, sol)
+
+
+def report_landing(run: LandingRun) -> dict:
+    """The JSON-able summary of a run (``jaxcable land --json``)."""
+    o = run.outputs
+    keys = (
+        "z_max_m",
+        "a_max_g",
+        "sigma_max_mpa",
+        "stop_time_s",
+        "criteria_met",
+        "z_ok",
+        "a_ok",
+        "sigma_ok",
+        "stopped",
+        "energy_budget_error",
+        "solver_status",
+        "num_steps",
+    )
+    out = {k: o[k] for k in keys}
+    for k, v in list(out.items()):
+        if isinstance(v, (np.bool_, bool)):
+            out[k] = bool(v)
+        elif isinstance(v, float) and not np.isfinite(v):
+            out[k] = None
+    out["fidelity"] = run.fidelity
+    out["energy_budget_J"] = o["energy_budget_J"]
+    out["g_unit_m_s2"] = G_CRITERIA
+    return out
+
+
+def plot_landing(run: LandingRun, path: str):
+    """A PNG like the paper's Fig 11: drop, velocity, acceleration, cable stress, counterweight."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ts = run.ts
+    ok = np.isfinite(ts)
+    p = run.probes
+    fig, ax = plt.subplots(5, 1, figsize=(7, 11), sharex=True)
+    ax[0].plot(ts[ok], p["drop_m"][ok])
+    ax[0].set_ylabel("drop z [m]")
+    ax[0].axhline(10.0, color="r", ls=":", lw=1)
+    ax[1].plot(ts[ok], -p["velocity_m_s"][ok, 2])
+    ax[1].set_ylabel("descent speed [m/s]")
+    ax[2].plot(ts[ok], -p["acceleration_m_s2"][ok, 2] / G_CRITERIA)
+    ax[2].set_ylabel("deceleration [g]")
+    ax[2].axhline(-5.0, color="r", ls=":", lw=1)
+    ax[3].plot(ts[ok], p["stress_max_pa"][ok] / 1e6)
+    ax[3].axhline(800.0, color="r", ls=":", lw=1)
+    ax[3].set_ylabel("max cable stress [MPa]")
+    ax[4].plot(ts[ok], p["counterweight_rise_m"][ok])
+    ax[4].set_ylabel("counterweight rise [m]")
+    ax[4].set_xlabel("time since capture [s]")
+    o = run.outputs
+    fig.suptitle(
+        f"passive deceleration, fidelity {run.fidelity}: z_max {o['z_max_m']:.2f} m, "
+        f"a_max {o['a_max_g']:.2f} g, sigma_max {o['sigma_max_mpa']:.0f} MPa"
+    )
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

@@ -1,0 +1,250 @@
+r"""Passive-deceleration scenes at four fidelity levels that share one set of outputs.
+
+Arresting-cable paper, sections II.B (1-DOF design model), III (flexible multibody model) and IV.C
+(passive-phase robustness). The rocket's four hooks are engaged with the four cables at t = 0 (the
+capture state); the counterweights and brakes stop it.
+
+A level is a choice of components, not a flag inside the physics:
+
+========  ===================================================  ==================================
+level     rocket                                               cables
+========  ===================================================  ==================================
+``1dof``  point mass, vertical, central (section II.B)          rigid, massless (closed form eq 12)
+``rigid`` rigid 6-DOF body, hooks fixed to it                   :class:`MasslessCables`
+``ale``   rigid 6-DOF body, hooks fixed to it                   :class:`AleCables` + contact
+``full``  flexible body chain + hinged, sprung hooks            :class:`AleCables` + contact
+========  ===================================================  ==================================
+
+Outputs (every level, :func:`landing_outputs`): histories of Fig 11 (drop, vertical velocity,
+acceleration, max cable stress, counterweight rise), ``z_max_m`` (max drop of O, the hook-plane
+centre), ``a_max_g`` (max |acceleration of the centre of mass| / 9.80, the criteria's g),
+``sigma_max_mpa`` (max cable stress), ``stop_time_s`` (first time the descent stops), the criteria
+(z_max < 10 m, a_max < 5 g, sigma_max < 800 MPa), the energy budget and the solver status.
+
+The acceleration is that of the rocket's centre of mass, ``g + F_cables / m``, exact for every level
+(the flexible rocket's local accelerations also carry its vibration).
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .._validation import check_choice
+from ..scene import AbstractScene
+from .buffer import BufferDevice
+from .cable_sets import AleCables, HookPoints, MasslessCables, throat_weights
+from .layout import ArrestingLayout, CaptureState, check_hooks_inside_frame
+
+__all__ = ["FIDELITY_LEVELS", "G_CRITERIA", "LandingCriteria", "PassiveLandingScene", "passive_landing_scene"]
+
+G_CRITERIA = 9.80
+"""The g of the paper's success criteria (section IV.A: "5 g where g = 9.80 m/s^2")."""
+
+FIDELITY_LEVELS = ("1dof", "rigid", "ale", "full")
+
+
+class LandingCriteria(eqx.Module):
+    """Success criteria of the passive phase (section IV.A)."""
+
+    z_max_m: float = 10.0
+    a_max_g: float = 5.0
+    sigma_max_mpa: float = 800.0
+
+
+class PassiveState(eqx.Module):
+    rocket: eqx.Module
+    cables: eqx.Module
+    contact_work: jax.Array
+    """Work done so far by all contact forces on both bodies [J] (minus the contact energy
+    stored and dissipated); zero for the massless level."""
+
+
+class PassiveLandingScene(AbstractScene):
+    """Rocket + cable set after capture. ``rocket`` is a landing rocket (rigid or flexible, see
+    :mod:`jaxcable.body.landing_rocket`); ``cables`` is :class:`MasslessCables` or :class:`AleCables`."""
+
+    rocket: eqx.Module
+    cables: eqx.Module
+    capture: CaptureState
+    gravity: jax.Array
+    t_end_s: float = eqx.field(static=True, default=2.0)
+    n_save: int = eqx.field(static=True, default=401)
+
+    def initial_state(self):
+        c = self.capture
+        return PassiveState(
+            rocket=self.rocket.initial_state(c.position, c.velocity, c.rotation_vector, c.omega),
+            cables=self.cables.initial_state(),
+            contact_work=jnp.zeros(()),
+        )
+
+    def hooks(self, rocket_state) -> HookPoints:
+        pos, vel = self.rocket.hook_points_world(rocket_state)
+        return HookPoints(positions=pos, velocities=vel)
+
+    def _step(self, state):
+        hooks = self.hooks(state.rocket)
+        forces, dcables, aux = self.cables.respond(state.cables, hooks)
+        drocket = self.rocket.derivative(state.rocket, forces, self.gravity)
+        return drocket, dcables, forces, aux
+
+    def vector_field(self, t, state):
+        drocket, dcables, _, aux = self._step(state)
+        return PassiveState(
+            rocket=drocket, cables=dcables, contact_work=aux.get("contact_power_W", jnp.zeros(()))
+        )
+
+    def default_save_ts(self, t1):
+        return jnp.linspace(0.0, t1, self.n_save)
+
+    def default_snapshot_ts(self, t1):
+        return jnp.linspace(0.0, t1, 5)
+
+    def probe(self, t, state):
+        drocket, dcables, forces, aux = self._step(state)
+        hooks = self.hooks(state.rocket)
+        o_pos, o_vel = self.rocket.reference_point(state.rocket)
+        o0 = self.capture.position
+        mass = self.rocket.total_mass
+        acc = self.gravity + jnp.sum(forces, axis=(0, 1)) / mass
+        e_r = self.rocket.energies(state.rocket, self.gravity)
+        e_c = self.cables.energies(state.cables, hooks)
+        energy = {**{f"rocket_{k}": v for k, v in e_r.items()}, **e_c}
+        energy["contact_work"] = state.contact_work
+        return dict(
+            drop_m=o0[2] - o_pos[2],
+            velocity_m_s=o_vel,
+            acceleration_m_s2=acc,
+            stress_max_pa=aux["tension_max_N"] / self.cables_area(),
+            counterweight_rise_m=aux["counterweight_rise_m"],
+            hook_normal_force_N=aux["hook_normal_force_N"],
+            centre_xy_m=o_pos[:2],
+            energy=energy,
+        )
+
+    def cables_area(self):
+        return self.cables.layout.cable_area_m2 if isinstance(self.cables, MasslessCables) else (
+            jnp.pi * self.cables.cable_radius_m**2
+        )
+
+    def snapshot(self, t, state):
+        hooks = self.hooks(state.rocket)
+        out = dict(hooks=hooks.positions)
+        if isinstance(self.cables, AleCables):
+            r = jax.vmap(lambda sub, q: sub.route.nodes(q)[0])(self.cables.subsystems, state.cables.q)
+            out["cable_nodes"] = r
+        return out
+
+    def summarize(self, result):
+        return landing_outputs(result.ts, result.probes, result.status)
+
+
+def _energy_total(energy):
+    stored = sum(v for k, v in energy.items() if k not in ("contact_work",))
+    return stored - energy["contact_work"]
+
+
+def landing_outputs(ts, probes, status, criteria: LandingCriteria = LandingCriteria()):
+    """Scalar outputs shared by every level (dict of arrays)."""
+    finite = jnp.isfinite(ts)
+    drop = jnp.where(finite, probes["drop_m"], -jnp.inf)
+    vz = probes["velocity_m_s"][:, 2]
+    acc = jnp.linalg.norm(probes["acceleration_m_s2"], axis=1)
+    sigma = probes["stress_max_pa"]
+    z_max = jnp.max(drop)
+    a_max = jnp.max(jnp.where(finite, acc, -jnp.inf)) / G_CRITERIA
+    sigma_max = jnp.max(jnp.where(finite, sigma, -jnp.inf)) / 1e6
+    # stop: first sample where the descent has stopped (vz >= 0), linearly interpolated
+    stopped = (vz >= 0.0) & finite
+    idx = jnp.argmax(stopped)
+    i0 = jnp.maximum(idx - 1, 0)
+    frac = jnp.clip(-vz[i0] / jnp.where(vz[idx] - vz[i0] == 0, 1.0, vz[idx] - vz[i0]), 0.0, 1.0)
+    stop_time = jnp.where(jnp.any(stopped), ts[i0] + frac * (ts[idx] - ts[i0]), jnp.nan)
+    totals = jax.vmap(lambda i: _energy_total(jax.tree_util.tree_map(lambda x: x[i], probes["energy"])))(
+        jnp.arange(ts.shape[0])
+    )
+    e0 = totals[0]
+    scale = jnp.abs(totals[0] - probes["energy"]["rocket_gravitational"][0] + 1.0)
+    budget_err = jnp.max(jnp.where(finite, jnp.abs(totals - e0), 0.0)) / scale
+    met = (z_max < criteria.z_max_m) & (a_max < criteria.a_max_g) & (sigma_max < criteria.sigma_max_mpa)
+    return dict(
+        z_max_m=z_max,
+        a_max_g=a_max,
+        sigma_max_mpa=sigma_max,
+        stop_time_s=stop_time,
+        stopped=jnp.any(stopped),
+        z_ok=z_max < criteria.z_max_m,
+        a_ok=a_max < criteria.a_max_g,
+        sigma_ok=sigma_max < criteria.sigma_max_mpa,
+        criteria_met=met,
+        energy_budget_error=budget_err,
+        status=status,
+    )
+
+
+def passive_landing_scene(
+    fidelity: str = "full",
+    capture: CaptureState | None = None,
+    layout: ArrestingLayout | None = None,
+    buffer: BufferDevice | None = None,
+    *,
+    contact=None,
+    n_span_elements: int = 24,
+    n_fine: int = 12,
+    n_rocket_bodies: int = 5,
+    t_end_s: float = 2.0,
+    cable_damping_s: float = 1e-4,
+):
+    """The passive-deceleration scene with the paper's Table 1 defaults at a fidelity level.
+
+    ``fidelity='1dof'`` returns the 1-DOF model's parameters instead (see :func:`run_landing`).
+    """
+    from ..body.landing_rocket import flexible_landing_rocket, rigid_landing_rocket
+    from .contact import ContactLaw
+
+    check_choice("fidelity", fidelity, FIDELITY_LEVELS)
+    capture = CaptureState() if capture is None else capture
+    layout = ArrestingLayout() if layout is None else layout
+    buffer = BufferDevice() if buffer is None else buffer
+    check_hooks_inside_frame(layout, capture)
+    gravity = jnp.array([0.0, 0.0, -9.81])
+    if fidelity == "full":
+        rocket = flexible_landing_rocket(n_bodies=n_rocket_bodies, hinged_hooks=True)
+    else:
+        rocket = rigid_landing_rocket(hinged_hooks=False)
+    state0 = rocket.initial_state(capture.position, capture.velocity, capture.rotation_vector, capture.omega)
+    pos0, vel0 = rocket.hook_points_world(state0)
+    hooks0 = HookPoints(positions=pos0, velocities=vel0)
+    hook_radius = rocket.hook_radius_m
+    clearance = hook_radius + layout.cable_radius_m
+    hinge, tip, barb = (rocket.hook_local_points[i] for i in range(3))
+    w = throat_weights(hinge, tip, barb, clearance)
+    # Put O so that the mean throat height is on the top plane (cables straight at capture in the
+    # design case): shift the capture position down by the throat's height above O.
+    throat0 = jnp.einsum("j,kjd->kd", w, pos0)
+    dz = jnp.mean(throat0[:, 2]) - capture.position[2]
+    capture = eqx.tree_at(lambda c: c.z_m, capture, capture.z_m - dz)
+    state0 = rocket.initial_state(capture.position, capture.velocity, capture.rotation_vector, capture.omega)
+    pos0, vel0 = rocket.hook_points_world(state0)
+    hooks0 = HookPoints(positions=pos0, velocities=vel0)
+    frame_centre = capture.position[:2]
+    if fidelity == "rigid":
+        cables = MasslessCables.build(layout, buffer, frame_centre, hooks0, w)
+    else:
+        contact = ContactLaw() if contact is None else contact
+        cables = AleCables.build(
+            layout,
+            buffer,
+            contact,
+            frame_centre,
+            hooks0,
+            w,
+            hook_radius,
+            n_span_elements=n_span_elements,
+            n_fine=n_fine,
+            damping_s=cable_damping_s,
+        )
+    return PassiveLandingScene(rocket=rocket, cables=cables, capture=capture, gravity=gravity, t_end_s=t_end_s)

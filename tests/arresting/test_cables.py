@@ -1,0 +1,173 @@
+"""The ALE cable over pulleys (jaxcable.arresting.cables) and the buffer device against closed forms."""
+
+import diffrax
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from jaxcable.arresting.buffer import BufferDevice
+from jaxcable.arresting.cables import CableCoords, CableRoute, CableState, CableSubsystem, graded_fractions
+from jaxcable.line.ale import AleCable
+
+G = 9.81
+
+
+def _route(points, kinds, moving, elements, stretch=1.0):
+    points = np.asarray(points, float)
+    geo = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    s_b = np.concatenate([[0.0], np.cumsum(geo)]) / stretch
+    fractions = tuple(jnp.asarray(np.linspace(0, 1, n + 1)[1:-1]) for n in elements)
+    route = CableRoute(
+        boundary_points=jnp.asarray(points),
+        s_boundary0=jnp.asarray(s_b),
+        fractions=fractions,
+        block_direction=jnp.array([0.0, 0.0, 1.0]),
+        kinds=tuple(kinds),
+        moving=tuple(moving),
+    )
+    r_int = [points[j] + f * (points[j + 1] - points[j]) for j, fr in enumerate(fractions) for f in np.asarray(fr)]
+    pulleys = np.array([i for i, k in enumerate(kinds) if k == "pulley"], int)
+    q0 = CableCoords(r=jnp.asarray(np.array(r_int).reshape(-1, 3)), s=jnp.asarray(s_b[pulleys]), u=jnp.zeros(()))
+    return route, q0
+
+
+def _state(q0):
+    return CableState(q=q0, qdot=jax.tree_util.tree_map(jnp.zeros_like, q0), dissipated=jnp.zeros(()))
+
+
+def _solve(sub, y0, t1, rtol=1e-9, n=5):
+    term = diffrax.ODETerm(lambda t, y, a: sub.derivative(y))
+    ts = jnp.linspace(0.0, t1, n)
+    sol = diffrax.diffeqsolve(
+        term, diffrax.Tsit5(), 0.0, t1, None, y0,
+        stepsize_controller=diffrax.PIDController(rtol=rtol, atol=rtol),
+        saveat=diffrax.SaveAt(ts=ts), max_steps=400_000,
+    )
+    return [jax.tree_util.tree_map(lambda x: x[i], sol.ys) for i in range(n)]
+
+
+def _buffer_route():
+    """Block strand - ground pulley - slider pulley - span - slider pulley - ground pulley - block."""
+    pts = [[0, 0, -40.0], [0, 0, -30.0], [0, -25, 0], [0, 25, 0], [0, 0, -30.0], [0, 0, -40.0]]
+    return _route(pts, ["end", "pulley", "pulley", "pulley", "pulley", "end"], [1, 0, 0, 0, 0, 1], [1, 2, 8, 2, 1], 1.0005)
+
+
+def total_energy(sub, y):
+    return sum(sub.energy(y).values())
+
+
+def test_undamped_cable_over_pulleys_with_counterweight_conserves_energy_and_mass():
+    """No damping, no brake: T + V is constant (the Lagrangian form is exactly conservative), while
+    material flows over the pulleys (s changes) and the total material length stays the ends'."""
+    route, q0 = _buffer_route()
+    sub = CableSubsystem(route, AleCable(EA_N=2.64e6, rhoA_kg_per_m=9.8), BufferDevice(brake_force_N=0.0, counterweight_mass_kg=300.0))
+    ys = _solve(sub, _state(q0), 0.3, rtol=1e-8)
+    e = np.array([float(total_energy(sub, y)) for y in ys])
+    scale = float(sub.energy(ys[0])["elastic"]) + abs(float(sub.energy(ys[0])["counterweight_potential"])) + 1e3
+    drift = np.max(np.abs(e - e[0])) / scale
+    assert drift < 1e-7, drift
+    flow = float(jnp.max(jnp.abs(ys[-1].q.s - ys[0].q.s)))
+    assert flow > 1e-3, "material should flow over the pulleys"
+    for y in ys:
+        r, s = route.nodes(y.q)
+        assert float(jnp.sum(jnp.diff(s))) == pytest.approx(float(sub.material_length()), rel=1e-12)
+        assert np.all(np.diff(np.asarray(s)) > 0)
+
+
+def _statics(sub, q0, iterations=30):
+    """Static equilibrium: Newton on the accelerations at zero velocity (no time stepping)."""
+    flat0, unravel = jax.flatten_util.ravel_pytree(q0)
+    zero = jnp.zeros_like(flat0)
+
+    def acc(fq):
+        return jax.flatten_util.ravel_pytree(sub.accelerations(unravel(fq), unravel(zero)))[0]
+
+    step = jax.jit(lambda fq: fq - jnp.linalg.solve(jax.jacfwd(acc)(fq), acc(fq)))
+    fq = flat0
+    for _ in range(iterations):
+        fq = step(fq)
+    assert float(jnp.max(jnp.abs(acc(fq)))) < 1e-6
+    return unravel(fq)
+
+
+def test_static_tension_balances_counterweight_through_transfer_rate():
+    """At rest the block strands carry alpha m_w g / 2 (the block carries 2 T, the counterweight
+    alpha m_w g: eq 12's kinematics) plus the cable's hydrostatic weight up to the span, and the
+    span sags as the parabola rhoA g L^2 / (8 T)."""
+    route, q0 = _buffer_route()
+    m_w = 2000.0
+    sub = CableSubsystem(route, AleCable(EA_N=2.64e8, rhoA_kg_per_m=9.8), BufferDevice(counterweight_mass_kg=m_w))
+    q = _statics(sub, q0)
+    tension = np.asarray(sub.tensions(q))
+    span = tension[3:11]
+    r, _ = route.nodes(q)
+    sag = -float(jnp.min(r[4:11, 2]))
+    # block strands carry alpha m_w g / 2 each; along a cable over frictionless pulleys in statics
+    # T - rhoA g z is constant, so the span's lowest point (z = -sag) carries that + rhoA g (40 - sag)
+    block_z = -40.0 + float(q.u)
+    expected = 3.0 * m_w * G / 2.0 + 9.8 * G * (-sag - block_z)
+    assert float(np.min(span)) == pytest.approx(expected, rel=2e-3)
+    # parabola vs catenary and the 8-element chord: both well under 2% at sag/L ~ 1%
+    assert sag == pytest.approx(9.8 * G * 50.0**2 / (8 * expected), rel=0.02)
+
+
+def test_axial_wave_speed():
+    """Lowest axial mode of a taut fixed-fixed cable: omega_1 = pi c / L with c = sqrt(EA / rhoA)
+    (to O(h^2) for the consistent mass; straight cable, gravity off)."""
+    L, n = 10.0, 40
+    route, q0 = _route([[0, 0, 0], [L, 0, 0]], ["end", "end"], [False, False], [n], 1.01)
+    EA, rhoA = 1e6, 2.0
+    sub = CableSubsystem(route, AleCable(EA_N=EA, rhoA_kg_per_m=rhoA), BufferDevice(), gravity=jnp.zeros(3))
+    flat0, unravel = jax.flatten_util.ravel_pytree(q0)
+    zero = jnp.zeros_like(flat0)
+
+    def acc(fq):
+        return jax.flatten_util.ravel_pytree(sub.accelerations(unravel(fq), unravel(zero)))[0]
+
+    K = -np.asarray(jax.jacfwd(acc)(flat0))
+    ax = np.arange(0, 3 * (n - 1), 3)  # x components of the internal nodes
+    w2 = np.sort(np.linalg.eigvals(K[np.ix_(ax, ax)]).real)
+    stretch = 1.01
+    # wave speed in the stretched cable (Green strain): c^2 = EA (3 lam^2 - 1) / (2 rhoA) per unit
+    # material length, the mode spans the material length L / lam
+    c_mat = np.sqrt(EA * (3 * stretch**2 - 1) / (2 * rhoA))
+    expected = np.pi * c_mat / (L / stretch)
+    assert np.sqrt(w2[0]) == pytest.approx(expected, rel=2e-3)
+
+
+def test_graded_fractions_put_fine_elements_around_centre():
+    f = graded_fractions(24, centre=20.0, half_width=3.0, n_fine=12, total=50.0)
+    edges = np.concatenate([[0], f, [1]]) * 50.0
+    h = np.diff(edges)
+    assert len(h) == 24 and np.all(h > 0)
+    fine = h[(edges[:-1] >= 17.0 - 1e-9) & (edges[1:] <= 23.0 + 1e-9)]
+    assert len(fine) == 12 and np.allclose(fine, 0.5)
+    with pytest.raises(ValueError, match="n_fine"):
+        graded_fractions(5, 1.0, 1.0, 4, 10.0)
+
+
+def test_bad_input_names_the_field():
+    with pytest.raises(ValueError, match="counterweight_mass_kg"):
+        BufferDevice(counterweight_mass_kg=-1.0)
+    with pytest.raises(ValueError, match="EA_N"):
+        AleCable(EA_N=0.0)
+    with pytest.raises(ValueError, match="boundary kind"):
+        _route([[0, 0, 0], [1, 0, 0], [2, 0, 0]], ["end", "hinge", "end"], [False] * 3, [1, 1])
+    with pytest.raises(ValueError, match="boundary_points"):
+        CableRoute(
+            boundary_points=jnp.array([[0.0, 0, 0], [np.nan, 0, 0]]),
+            s_boundary0=jnp.array([0.0, 1.0]),
+            fractions=(jnp.zeros(0),),
+            block_direction=jnp.array([0.0, 0, 1]),
+            kinds=("end", "end"),
+            moving=(False, False),
+        )
+
+
+def test_brake_dissipates_and_holds():
+    b = BufferDevice()
+    w = jnp.linspace(-1, 1, 11)
+    assert np.all(np.asarray(b.brake_power(w / 3.0)) >= 0)
+    # at a creep speed of width/10 the brake already gives ~tanh(0.1) F_f
+    assert float(b.brake_force(0.005)) == pytest.approx(3.13e5 * np.tanh(0.1))
