@@ -92,11 +92,13 @@ class MasslessCables(eqx.Module):
     """(4,) material length of each cable [m] (set from the capture geometry and pre-tension)."""
     outer_m: jax.Array
     """(4,) geometric length of the outer strands at u = 0 [m]."""
+    damping_s: jax.Array = eqx.field(converter=jnp.asarray, default=1e-4)
+    """``beta``: stiffness-proportional (Rayleigh) damping of the cable [s], as eq 31's ``EA beta eps_dot``."""
     slack_width: float = eqx.field(static=True, default=1e-6)
     gravity_m_s2: float = eqx.field(static=True, default=9.81)
 
     @classmethod
-    def build(cls, layout, buffer, frame_centre_xy, hooks0: HookPoints, throat_w, slack_width=1e-6):
+    def build(cls, layout, buffer, frame_centre_xy, hooks0: HookPoints, throat_w, damping_s=1e-4, slack_width=1e-6):
         ends, _ = span_endpoints(layout, frame_centre_xy)
         c, _ = _engaged_throats(hooks0, throat_w)
         span = jnp.linalg.norm(c - ends[:, 0], axis=1) + jnp.linalg.norm(ends[:, 1] - c, axis=1)
@@ -104,7 +106,7 @@ class MasslessCables(eqx.Module):
         outer = 2.0 * (jnp.sqrt(l0**2 + H**2) + D) * jnp.ones(4)
         strain0 = layout.pretension_N / layout.EA_N
         unstretched = (span + outer) / (1.0 + strain0)
-        return cls(layout, buffer, ends, throat_w, unstretched, outer, slack_width)
+        return cls(layout, buffer, ends, throat_w, unstretched, outer, damping_s, slack_width)
 
     def initial_state(self):
         z = jnp.zeros(4)
@@ -119,19 +121,18 @@ class MasslessCables(eqx.Module):
     def _strain(self, u, throat):
         return self._lengths(u, throat) / self.unstretched_m - 1.0
 
-    def tensions(self, state, hooks):
-        throat, _ = _engaged_throats(hooks, self.throat_w)
-        strain = self._strain(state.u, throat)
-        return self.layout.EA_N * axial_tension_factor(strain, self.slack_width)
-
     def respond(self, state: MasslessState, hooks: HookPoints):
-        throat, _ = _engaged_throats(hooks, self.throat_w)
-        tension = self.layout.EA_N * axial_tension_factor(self._strain(state.u, throat), self.slack_width)
+        throat, throat_v = _engaged_throats(hooks, self.throat_w)
         d_a = self.span_ends[:, 0] - throat
         d_b = self.span_ends[:, 1] - throat
-        pull = tension[:, None] * (
-            d_a / jnp.linalg.norm(d_a, axis=1, keepdims=True) + d_b / jnp.linalg.norm(d_b, axis=1, keepdims=True)
-        )  # (4 cables, 3) force on each engaged hook's throat
+        e_a = d_a / jnp.linalg.norm(d_a, axis=1, keepdims=True)
+        e_b = d_b / jnp.linalg.norm(d_b, axis=1, keepdims=True)
+        strain = self._strain(state.u, throat)
+        strain_rate = (-jnp.sum((e_a + e_b) * throat_v, axis=1) - 2.0 * state.udot) / self.unstretched_m
+        elastic = self.layout.EA_N * axial_tension_factor(strain, self.slack_width)
+        damping = self.layout.EA_N * self.damping_s * strain_rate
+        tension = elastic + damping
+        pull = tension[:, None] * (e_a + e_b)  # (4 cables, 3) force on each engaged hook's throat
         forces = jnp.zeros((4, 3, 3)).at[np.array(HOOK_OF_CABLE)].set(self.throat_w[None, :, None] * pull[:, None, :])
         b = self.buffer
         m_eff = b.counterweight_mass_kg * b.transfer_rate**2
@@ -140,7 +141,8 @@ class MasslessCables(eqx.Module):
             + b.generalized_force(state.udot)
             - b.transfer_rate * b.counterweight_mass_kg * self.gravity_m_s2
         ) / m_eff
-        dstate = MasslessState(u=state.udot, udot=udd, dissipated=jnp.sum(b.brake_power(state.udot)))
+        damping_power = jnp.sum(damping * strain_rate * self.unstretched_m)
+        dstate = MasslessState(u=state.udot, udot=udd, dissipated=jnp.sum(b.brake_power(state.udot)) + damping_power)
         normal = jnp.zeros(4).at[np.array(HOOK_OF_CABLE)].set(jnp.linalg.norm(pull, axis=1))
         aux = dict(
             tension_max_N=jnp.max(tension),

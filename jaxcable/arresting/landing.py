@@ -106,10 +106,10 @@ def _run_one_dof(capture, layout, buffer, t_end_s, criteria):
             f"fidelity '1dof' models the vertical central landing only; got nonzero {lateral}: "
             "use --fidelity rigid, ale or full"
         )
-    from ..body.landing_rocket import ROCKET_MASS_KG
+    from ..body.landing_rocket import rigid_landing_rocket
 
     params = OneDofParams(
-        m_r=ROCKET_MASS_KG,
+        m_r=rigid_landing_rocket(hinged_hooks=False).total_mass_kg,  # same mass as the other levels
         v0=-float(capture.vz_m_s),
         l_0=layout.half_span_m,
         alpha=buffer.transfer_rate,

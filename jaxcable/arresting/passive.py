@@ -88,7 +88,7 @@ class PassiveLandingScene(AbstractScene):
     def _step(self, state):
         hooks = self.hooks(state.rocket)
         forces, dcables, aux = self.cables.respond(state.cables, hooks)
-        drocket = self.rocket.derivative(state.rocket, forces, self.gravity)
+        drocket = self.rocket.derivative(state.rocket, self.gravity, hook_forces_N=forces)
         return drocket, dcables, forces, aux
 
     def vector_field(self, t, state):
@@ -108,11 +108,11 @@ class PassiveLandingScene(AbstractScene):
         hooks = self.hooks(state.rocket)
         o_pos, o_vel = self.rocket.reference_point(state.rocket)
         o0 = self.capture.position
-        mass = self.rocket.total_mass
+        mass = self.rocket.total_mass_kg
         acc = self.gravity + jnp.sum(forces, axis=(0, 1)) / mass
         e_r = self.rocket.energies(state.rocket, self.gravity)
         e_c = self.cables.energies(state.cables, hooks)
-        energy = {**{f"rocket_{k}": v for k, v in e_r.items()}, **e_c}
+        energy = {**{f"rocket_{k}": v for k, v in e_r.items() if k != "total"}, **e_c}
         energy["contact_work"] = state.contact_work
         return dict(
             drop_m=o0[2] - o_pos[2],
@@ -218,10 +218,9 @@ def passive_landing_scene(
     state0 = rocket.initial_state(capture.position, capture.velocity, capture.rotation_vector, capture.omega)
     pos0, vel0 = rocket.hook_points_world(state0)
     hooks0 = HookPoints(positions=pos0, velocities=vel0)
-    hook_radius = rocket.hook_radius_m
+    hook_radius = 0.5 * rocket.params.hook_diameter_m
     clearance = hook_radius + layout.cable_radius_m
-    hinge, tip, barb = (rocket.hook_local_points[i] for i in range(3))
-    w = throat_weights(hinge, tip, barb, clearance)
+    w = throat_weights(pos0[0, 0], pos0[0, 1], pos0[0, 2], clearance)
     # Put O so that the mean throat height is on the top plane (cables straight at capture in the
     # design case): shift the capture position down by the throat's height above O.
     throat0 = jnp.einsum("j,kjd->kd", w, pos0)
@@ -232,7 +231,7 @@ def passive_landing_scene(
     hooks0 = HookPoints(positions=pos0, velocities=vel0)
     frame_centre = capture.position[:2]
     if fidelity == "rigid":
-        cables = MasslessCables.build(layout, buffer, frame_centre, hooks0, w)
+        cables = MasslessCables.build(layout, buffer, frame_centre, hooks0, w, damping_s=cable_damping_s)
     else:
         contact = ContactLaw() if contact is None else contact
         cables = AleCables.build(
