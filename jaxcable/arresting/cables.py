@@ -281,8 +281,135 @@ class CableSubsystem(eqx.Module):
         return jax.grad(power)(zero)
 
     # -- dynamics --------------------------------------------------------------------------------
+    def _cable_terms_x(self, x, xd, assemble=True):
+        """Cable mass matrix and forces in full nodal coordinates ``x = [r_i, s_i]`` (4N,).
+
+        Returns ``(M_full (4N,4N), f (4N,))`` with ``f = -(d/dx(M xd)) xd + dT/dx - dV/dx - dD/dxd``
+        for the cable alone (element by element, closed-form mass, autodiff for the rest)."""
+        n = x.shape[0] // 4
+        X = x.reshape(n, 4)
+        rhoA, EA = self.cable.rhoA_kg_per_m, self.cable.EA_N
+
+        def element_T(xe, xde):
+            r1, s1, r2, s2 = xe[:3], xe[3], xe[4:7], xe[7]
+            length, tangent, _ = _element_terms(r1, r2, s1, s2)
+            a1 = xde[:3] - tangent * xde[3]
+            a2 = xde[4:7] - tangent * xde[7]
+            return rhoA * length / 6.0 * (a1 @ a1 + a1 @ a2 + a2 @ a2)
+
+        def element_V(xe):
+            r1, s1, r2, s2 = xe[:3], xe[3], xe[4:7], xe[7]
+            length, _, strain = _element_terms(r1, r2, s1, s2)
+            elastic = EA * length * strain_energy_density(strain, self.cable.slack_width)
+            return elastic - rhoA * length * (0.5 * (r1 + r2)) @ self.gravity
+
+        def element_D(xe, xde):
+            r1, s1, r2, s2 = xe[:3], xe[3], xe[4:7], xe[7]
+            length, tangent, _ = _element_terms(r1, r2, s1, s2)
+            rate = (tangent @ (xde[4:7] - xde[:3]) - (tangent @ tangent) * (xde[7] - xde[3])) / length
+            return 0.5 * self.cable.damping_s * EA * length * rate**2
+
+        def element_terms(xe, xde):
+            p = lambda y: jax.grad(element_T, argnums=1)(y, xde)  # noqa: E731
+            _, dp = jax.jvp(p, (xe,), (xde,))
+            f = -dp + jax.grad(element_T, argnums=0)(xe, xde)
+            f = f - jax.grad(element_V)(xe) - jax.grad(element_D, argnums=1)(xe, xde)
+            r1, s1, r2, s2 = xe[:3], xe[3], xe[4:7], xe[7]
+            length, tangent, _ = _element_terms(r1, r2, s1, s2)
+            B = jnp.concatenate([jnp.eye(3, dtype=x.dtype), -tangent[None, :]], axis=0)
+            M_e = rhoA * length / 6.0 * jnp.kron(jnp.array([[2.0, 1.0], [1.0, 2.0]]), B @ B.T)
+            return M_e, f
+
+        xe = jnp.concatenate([X[:-1], X[1:]], axis=1)
+        xde = jnp.concatenate([xd.reshape(n, 4)[:-1], xd.reshape(n, 4)[1:]], axis=1)
+        M_e, f_e = jax.vmap(element_terms)(xe, xde)
+        idx = 4 * jnp.arange(n - 1)[:, None] + jnp.arange(8)[None, :]
+        f = jnp.zeros(4 * n, x.dtype).at[idx].add(f_e)
+        if not assemble:
+            return M_e, f
+        M = jnp.zeros((4 * n, 4 * n), x.dtype).at[idx[:, :, None], idx[:, None, :]].add(M_e)
+        return M, f
+
     def accelerations(self, q, qdot, external: CableCoords | None = None):
-        """``q_dd`` from Lagrange's equations (see module docstring); ``external`` generalised forces."""
+        """``q_dd`` from Lagrange's equations (see module docstring); ``external`` generalised forces.
+
+        Nodal coordinates are affine in ``q`` (``x = A q + b``, ``A`` constant), so Lagrange's
+        equations in ``q`` are ``A^T`` times those in ``x``: ``(A^T M_x A) q_dd = A^T f_x + Q_u``.
+        ``A^T M_x A`` is never formed densely: its block for the internal-node positions is the
+        scalar consistent-mass tridiagonal (x) I3 (the r-r block of every ALE element mass is
+        ``rhoA L/6 [[2,1],[1,2]] (x) I3``), coupled to the few pulley/block coordinates; we solve by
+        the Schur complement on those, with one tridiagonal solve: O(n) per cable.
+        """
+        flat_q, unravel = ravel_pytree(q)
+        flat_qd, _ = ravel_pytree(qdot)
+        n_r = q.r.size
+        n_int = q.r.shape[0]
+
+        def xfun(fq):
+            r, s = self.route.nodes(unravel(fq))
+            return jnp.concatenate([r, s[:, None]], axis=1).reshape(-1)
+
+        x, xd = jax.jvp(xfun, (flat_q,), (flat_qd,))
+        _, xfun_T = jax.vjp(xfun, flat_q)  # A^T (the map is affine)
+        M_x_apply, f_x, lengths = self._cable_terms_x_apply(x, xd)
+        rhs = xfun_T(f_x)[0]
+        # columns of A^T M_x A for the few "slow" coordinates (pulley s, block u)
+        n_slow = flat_q.shape[0] - n_r
+        eye = jnp.eye(flat_q.shape[0], dtype=x.dtype)[n_r:]
+        cols = jax.vmap(lambda e: xfun_T(M_x_apply(jax.jvp(xfun, (flat_q,), (e,))[1] - 0 * x))[0])(eye)
+        M_slow = cols.T  # (n_dof, n_slow): column j = M_q e_j
+        # counterweight: kinetic m_w alpha^2 u_dot^2 / 2, potential m_w g alpha u, brake
+        b = self.buffer
+        u_slow = n_slow - 1  # ravel order of CableCoords: r, s, u
+        M_slow = M_slow.at[n_r + u_slow, u_slow].add(b.counterweight_mass_kg * b.transfer_rate**2)
+        g = -self.gravity[2]
+        rhs = rhs.at[-1].add(-b.counterweight_mass_kg * g * b.transfer_rate + b.generalized_force(qdot.u))
+        if external is not None:
+            rhs = rhs + ravel_pytree(external)[0]
+        # tridiagonal consistent mass of the internal nodes (per coordinate direction)
+        bidx, iidx, _, _ = self.route._index_tables()
+        full_of_int = np.nonzero(iidx >= 0)[0]
+        rhoA = self.cable.rhoA_kg_per_m
+        diag = rhoA * (lengths[full_of_int - 1] + lengths[full_of_int]) / 3.0
+        has_next = (iidx[np.minimum(full_of_int + 1, len(iidx) - 1)] >= 0) & (full_of_int + 1 < len(iidx))
+        upper = jnp.where(has_next, rhoA * lengths[full_of_int] / 6.0, 0.0)
+        du = upper.at[-1].set(0.0)
+        dl = jnp.concatenate([jnp.zeros(1, x.dtype), upper[:-1]])
+        M_rs = M_slow[:n_r].reshape(n_int, 3 * n_slow)
+        M_ss = M_slow[n_r:]
+        f_r = rhs[:n_r].reshape(n_int, 3)
+        f_s = rhs[n_r:]
+        # (a dense solve of this small n_int x n_int tridiagonal: LAPACK gtsv has no batched CPU
+        # kernel under vmap in this jaxlib, and n_int ~ 25 makes the dense LU ~1e4 flops)
+        tri = jnp.diag(diag) + jnp.diag(du[:-1], 1) + jnp.diag(dl[1:], -1)
+        sol = jnp.linalg.solve(tri, jnp.concatenate([f_r, M_rs], axis=1))
+        Minv_fr = sol[:, :3].reshape(-1)
+        Minv_Mrs = sol[:, 3:].reshape(n_int, 3, n_slow).reshape(n_r, n_slow)
+        M_rs_flat = M_slow[:n_r]
+        schur = M_ss - M_rs_flat.T @ Minv_Mrs
+        a_s = jnp.linalg.solve(schur, f_s - M_rs_flat.T @ Minv_fr)
+        a_r = Minv_fr - Minv_Mrs @ a_s
+        return unravel(jnp.concatenate([a_r, a_s]))
+
+    def _cable_terms_x_apply(self, x, xd):
+        """As :meth:`_cable_terms_x`, but the mass matrix as a function ``v -> M_x v`` (element by
+        element, never assembled), and the element material lengths."""
+        n = x.shape[0] // 4
+        X = x.reshape(n, 4)
+        rhoA = self.cable.rhoA_kg_per_m
+        M_x, f = self._cable_terms_x(x, xd, assemble=False)
+        lengths = X[1:, 3] - X[:-1, 3]
+        idx = 4 * jnp.arange(n - 1)[:, None] + jnp.arange(8)[None, :]
+
+        def apply(v):
+            ve = v[idx]
+            return jnp.zeros(4 * n, x.dtype).at[idx].add(jnp.einsum("eij,ej->ei", M_x, ve))
+
+        return apply, f, lengths
+
+    def _accelerations_autodiff(self, q, qdot, external: CableCoords | None = None):
+        """Reference implementation: Lagrange's equations by autodiff of the total T, V, D in q
+        (slow: the mass matrix by ``jacfwd``); the tests check :meth:`accelerations` against it."""
         flat_q, unravel = ravel_pytree(q)
         flat_qd, _ = ravel_pytree(qdot)
 
