@@ -194,6 +194,7 @@ def passive_landing_scene(
     contact=None,
     n_span_elements: int = 16,
     n_fine: int = 8,
+    fine_half_width_m: float = 3.0,
     n_rocket_bodies: int = 5,
     t_end_s: float = 2.0,
     cable_damping_s: float = 1e-5,
@@ -256,6 +257,7 @@ def passive_landing_scene(
             hook_radius,
             n_span_elements=n_span_elements,
             n_fine=n_fine,
+            fine_half_width_m=fine_half_width_m,
             damping_s=cable_damping_s,
         )
     return PassiveLandingScene(rocket=rocket, cables=cables, capture=capture, gravity=gravity, t_end_s=t_end_s)
