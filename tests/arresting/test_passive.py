@@ -1,0 +1,152 @@
+"""Passive-deceleration scenes: levels, the 1-DOF limit, energy budget, gradients, bad input, CLI."""
+
+import json
+import subprocess
+import sys
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from jaxcable import simulate
+from jaxcable.arresting.buffer import BufferDevice
+from jaxcable.arresting.landing import report_landing, run_landing
+from jaxcable.arresting.layout import ArrestingLayout, CaptureState
+from jaxcable.arresting.passive import passive_landing_scene, smooth_landing_outputs
+
+KEYS = ("z_max_m", "a_max_g", "sigma_max_mpa", "stop_time_s", "criteria_met", "solver_status")
+
+
+@pytest.fixture(scope="module")
+def one_dof():
+    return run_landing("1dof").outputs
+
+
+def test_rigid_level_design_case_closes_energy_budget(one_dof):
+    run = run_landing("rigid")
+    o = run.outputs
+    assert o["solver_status"] == "successful"
+    assert o["stopped"] and np.isfinite(o["stop_time_s"])
+    # the budget (kinetic + potential + counterweight + elastic + dissipated) is closed to the solver
+    # tolerance; the issue asks for 1%
+    assert o["energy_budget_error"] < 1e-2
+    assert o["energy_budget_error"] < 1e-4
+    # elastic cables stop the rocket near the rigid-cable distance (within 3%: cable stretch and the
+    # throat 1.4 m outside the frame line)
+    assert o["z_max_m"] == pytest.approx(one_dof["z_max_m"], rel=0.03)
+    rep = report_landing(run)
+    for k in KEYS:
+        assert k in rep
+    json.dumps(rep)
+
+
+def test_rigid_level_converges_to_one_dof_with_stiff_damped_cables(one_dof):
+    """The 1-DOF model is the rigid-cable limit: 1000x stiffer cables with stiffness-proportional
+    damping (beta = 1e-2 s overdamps the cable-counterweight mode, which a rigid cable does not have)
+    reproduce z_max, a_max and peak cable stress to 1%."""
+    run = run_landing("rigid", layout=ArrestingLayout(EA_N=2.64e11), cable_damping_s=1e-2, t_end_s=1.0)
+    o = run.outputs
+    for key in ("z_max_m", "a_max_g", "sigma_max_mpa", "stop_time_s"):
+        assert o[key] == pytest.approx(one_dof[key], rel=0.01), key
+
+
+def test_smooth_outputs_gradients_match_finite_differences():
+    """d(z_max, a_max, sigma_max)/d(m_w, F_f) through the diffrax solve (rigid level), float64,
+    against central differences; the soft maxima are within their stated bias of the hard ones."""
+    scene = passive_landing_scene("rigid", t_end_s=1.0)
+
+    def outputs(params):
+        m_w, F_f = params
+        s = eqx.tree_at(
+            lambda sc: (sc.cables.buffer.counterweight_mass_kg, sc.cables.buffer.brake_force_N), scene, (m_w, F_f)
+        )
+        res = simulate(s, 1.0, rtol=1e-8, atol=1e-8, max_steps=100_000)
+        out = smooth_landing_outputs(res.ts, res.probes)
+        return jnp.stack([out["z_max_m"], out["a_max_g"], out["sigma_max_mpa"]]), res.outputs
+
+    x0 = jnp.array([920.0, 3.13e5])
+    f = eqx.filter_jit(lambda p: outputs(p)[0])
+    jac = np.asarray(jax.jacrev(f)(x0))
+    assert np.all(np.isfinite(jac))
+    steps = np.array([5.0, 1.0e3])
+    for j in range(2):
+        e = np.zeros(2)
+        e[j] = steps[j]
+        fd = (np.asarray(f(x0 + e)) - np.asarray(f(x0 - e))) / (2 * steps[j])
+        scale = np.abs(np.asarray(f(x0))) / np.asarray(x0)[j]
+        # central differences in float64 with steps ~0.3-0.5% of the parameter: truncation plus the
+        # solver's adaptive-step noise (rtol 1e-8); 2% of the output's own scale
+        assert np.allclose(jac[:, j], fd, rtol=0.02, atol=0.02 * scale), (j, jac[:, j], fd)
+    soft, hard = outputs(x0)
+    n = 401
+    assert float(hard["z_max_m"]) <= float(soft[0]) <= float(hard["z_max_m"]) + 0.05 * np.log(n)
+
+
+def test_bad_input_gets_clear_errors():
+    with pytest.raises(ValueError, match="counterweight_mass_kg"):
+        run_landing("rigid", buffer=BufferDevice(counterweight_mass_kg=-1.0))
+    with pytest.raises(ValueError, match="EA_N"):
+        ArrestingLayout(EA_N=0.0)
+    with pytest.raises(ValueError, match="x_m"):
+        CaptureState(x_m=float("nan"))
+    with pytest.raises(ValueError, match="outside the capture frame"):
+        run_landing("rigid", capture=CaptureState(x_m=22.0))
+    with pytest.raises(ValueError, match="theta_z_deg"):
+        CaptureState(theta_z_deg=50.0)
+    with pytest.raises(ValueError, match="fidelity"):
+        run_landing("medium")
+    with pytest.raises(ValueError, match="vertical central"):
+        run_landing("1dof", capture=CaptureState(x_m=3.0))
+
+
+def test_deviated_capture_rigid_level_is_finite_and_recentres():
+    """A capture 17 m off-centre with 16 deg tilt (Table 8's extremes): finite, budget closes, the
+    asymmetric cable forces pull the rocket back toward the centre (section IV.A)."""
+    cap = CaptureState(x_m=17.0, y_m=-17.0, vx_m_s=2.0, theta_x_deg=16.0, theta_y_deg=-16.0, theta_z_deg=26.0)
+    run = run_landing("rigid", capture=cap, t_end_s=2.0)
+    o = run.outputs
+    assert o["solver_status"] == "successful"
+    assert o["energy_budget_error"] < 1e-2
+    xy = run.probes["centre_xy_m"]
+    ok = np.isfinite(run.ts)
+    assert np.linalg.norm(xy[ok][-1]) < np.linalg.norm(xy[0]) - 1.0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("fidelity", ["ale", "full"])
+def test_ale_and_full_levels_start_of_capture(fidelity):
+    """First 0.1 s of the design case with ALE cables and hook contact: every hook carries a contact
+    force, the budget (with contact work, damping and brakes) closes within 1%, the cable mass is
+    conserved over the pulleys."""
+    run = run_landing(fidelity, t_end_s=0.1)
+    o = run.outputs
+    assert o["solver_status"] == "successful", o
+    assert o["energy_budget_error"] < 1e-2
+    force = run.probes["hook_normal_force_N"]
+    ok = np.isfinite(run.ts)
+    assert np.all(np.max(force[ok], axis=0) > 1e4)
+    assert np.all(np.isfinite(run.probes["drop_m"][ok]))
+    assert run.probes["drop_m"][ok][-1] > 1.5  # still falling at ~20 m/s
+
+
+def test_cli_land_json():
+    out = subprocess.run(
+        [sys.executable, "-m", "jaxcable.cli", "land", "--fidelity", "rigid", "--t-end", "1.0", "--json"],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert out.returncode == 0, out.stderr
+    data = json.loads(out.stdout)
+    for k in KEYS:
+        assert k in data
+    assert isinstance(data["criteria_met"], bool)
+    bad = subprocess.run(
+        [sys.executable, "-m", "jaxcable.cli", "land", "--fidelity", "1dof", "--x", "3"],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert bad.returncode == 2 and "vertical central" in bad.stderr
