@@ -70,6 +70,8 @@ class PassiveState(eqx.Module):
     contact_work: jax.Array
     """Work done so far by all contact forces on both bodies [J] (minus the contact energy
     stored and dissipated); zero for the massless level."""
+    hook_damping_work: jax.Array
+    """Energy dissipated so far by the hook dampers [J] (zero when the hooks are welded)."""
 
 
 class PassiveLandingScene(AbstractScene):
@@ -89,6 +91,7 @@ class PassiveLandingScene(AbstractScene):
             rocket=self.rocket.initial_state(c.position, c.velocity, c.rotation_vector, c.omega),
             cables=self.cables.initial_state(),
             contact_work=jnp.zeros(()),
+            hook_damping_work=jnp.zeros(()),
         )
 
     def hooks(self, rocket_state) -> HookPoints:
@@ -103,8 +106,13 @@ class PassiveLandingScene(AbstractScene):
 
     def vector_field(self, t, state):
         drocket, dcables, _, aux = self._step(state)
+        rate = state.rocket.hinge_rate
+        hook_power = self.rocket.params.hook_rotational_damping_N_m_s_per_rad * jnp.sum(rate**2)
         return PassiveState(
-            rocket=drocket, cables=dcables, contact_work=aux.get("contact_power_W", jnp.zeros(()))
+            rocket=drocket,
+            cables=dcables,
+            contact_work=aux.get("contact_power_W", jnp.zeros(())),
+            hook_damping_work=hook_power,
         )
 
     def default_save_ts(self, t1):
@@ -124,6 +132,7 @@ class PassiveLandingScene(AbstractScene):
         e_c = self.cables.energies(state.cables, hooks)
         energy = {**{f"rocket_{k}": v for k, v in e_r.items() if k != "total"}, **e_c}
         energy["contact_work"] = state.contact_work
+        energy["dissipated_hook_dampers"] = state.hook_damping_work
         return dict(
             drop_m=o0[2] - o_pos[2],
             velocity_m_s=o_vel,
