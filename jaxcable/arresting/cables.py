@@ -39,7 +39,9 @@ Glossary
 --------
 ===================  ===========================================================================
 ``boundary_points``  (nb,3) boundary node positions at ``u = 0`` [m]
-``kinds``            static tuple, per boundary node: ``"end"`` or ``"pulley"``
+``kinds``            static tuple, per boundary node: ``"end"``, ``"pulley"`` (passive: ``s`` free) or
+                     ``"active"`` (the motor-driven pulley of eq 47: ``s`` is a coordinate whose rate
+                     ``s_dot = v_p`` is prescribed; its acceleration is an input)
 ``moving``           static tuple of bool: boundary node rides the moving pulley block
 ``elements``         static tuple, ALE elements per span (nb-1 spans)
 ``fractions``        tuple of (n_j-1,) arrays: internal-node material fractions per span, in (0,1)
@@ -135,8 +137,8 @@ class CableRoute(eqx.Module):
         if len(self.kinds) != len(self.moving) or len(self.fractions) != len(self.kinds) - 1:
             raise ValueError("CableRoute: kinds, moving and fractions must describe the same nodes/spans")
         for k in self.kinds:
-            if k not in ("end", "pulley"):
-                raise ValueError(f"unknown boundary kind {k!r}; choose 'end' or 'pulley'")
+            if k not in ("end", "pulley", "active"):
+                raise ValueError(f"unknown boundary kind {k!r}; choose 'end', 'pulley' or 'active'")
         if self.kinds[0] != "end" or self.kinds[-1] != "end":
             raise ValueError("a cable route must start and end with an 'end' node")
         s = np.asarray(self.s_boundary0) if not isinstance(self.s_boundary0, jax.core.Tracer) else None
@@ -158,7 +160,12 @@ class CableRoute(eqx.Module):
 
     @property
     def pulley_ids(self):
-        return tuple(i for i, k in enumerate(self.kinds) if k == "pulley")
+        return tuple(i for i, k in enumerate(self.kinds) if k in ("pulley", "active"))
+
+    @property
+    def active_slots(self):
+        """Positions in ``CableCoords.s`` of the active (motor-driven) pulleys."""
+        return tuple(j for j, i in enumerate(self.pulley_ids) if self.kinds[i] == "active")
 
     def _index_tables(self):
         """For each full node: boundary id or -1, internal id or -1, span id, fraction slot."""
@@ -330,8 +337,13 @@ class CableSubsystem(eqx.Module):
         M = jnp.zeros((4 * n, 4 * n), x.dtype).at[idx[:, :, None], idx[:, None, :]].add(M_e)
         return M, f
 
-    def accelerations(self, q, qdot, external: CableCoords | None = None):
+    def accelerations(self, q, qdot, external: CableCoords | None = None, reel_acceleration=None):
         """``q_dd`` from Lagrange's equations (see module docstring); ``external`` generalised forces.
+
+        Active pulleys (eq 47, ``s_dot = v_p``): their material coordinates move as prescribed; the
+        state carries ``s_dot = v_p`` and ``reel_acceleration`` (n_active,) [m/s^2] is ``dv_p/dt``
+        (default 0: constant reel speed). Their rows of the reduced system are replaced by the
+        prescription; the motor supplies whatever force that takes (the multiplier of eq 47).
 
         Nodal coordinates are affine in ``q`` (``x = A q + b``, ``A`` constant), so Lagrange's
         equations in ``q`` are ``A^T`` times those in ``x``: ``(A^T M_x A) q_dd = A^T f_x + Q_u``.
@@ -387,7 +399,13 @@ class CableSubsystem(eqx.Module):
         Minv_Mrs = sol[:, 3:].reshape(n_int, 3, n_slow).reshape(n_r, n_slow)
         M_rs_flat = M_slow[:n_r]
         schur = M_ss - M_rs_flat.T @ Minv_Mrs
-        a_s = jnp.linalg.solve(schur, f_s - M_rs_flat.T @ Minv_fr)
+        reduced_rhs = f_s - M_rs_flat.T @ Minv_fr
+        active = np.array(self.route.active_slots, dtype=int)
+        if active.size:
+            prescribed = jnp.zeros(active.size) if reel_acceleration is None else jnp.asarray(reel_acceleration)
+            schur = schur.at[active].set(jnp.eye(n_slow, dtype=x.dtype)[active])
+            reduced_rhs = reduced_rhs.at[active].set(prescribed)
+        a_s = jnp.linalg.solve(schur, reduced_rhs)
         a_r = Minv_fr - Minv_Mrs @ a_s
         return unravel(jnp.concatenate([a_r, a_s]))
 

@@ -27,7 +27,7 @@ def _route(points, kinds, moving, elements, stretch=1.0):
         moving=tuple(moving),
     )
     r_int = [points[j] + f * (points[j + 1] - points[j]) for j, fr in enumerate(fractions) for f in np.asarray(fr)]
-    pulleys = np.array([i for i, k in enumerate(kinds) if k == "pulley"], int)
+    pulleys = np.array([i for i, k in enumerate(kinds) if k in ("pulley", "active")], int)
     q0 = CableCoords(r=jnp.asarray(np.array(r_int).reshape(-1, 3)), s=jnp.asarray(s_b[pulleys]), u=jnp.zeros(()))
     return route, q0
 
@@ -171,3 +171,31 @@ def test_brake_dissipates_and_holds():
     assert np.all(np.asarray(b.brake_power(w / 3.0)) >= 0)
     # at a creep speed of width/10 the brake already gives ~tanh(0.1) F_f
     assert float(b.brake_force(0.005)) == pytest.approx(3.13e5 * np.tanh(0.1))
+
+
+def test_active_pulley_reels_cable_at_the_prescribed_rate():
+    """Eq 47: the active pulley's material coordinate moves at the reel speed v_p; material flows
+    from one span to the other over it, the total material (and mass) stays that of the ends, and the
+    free cable responds (the span being reeled in tightens)."""
+    pts = [[-10.0, 0, 0], [0, 0, 0], [10.0, 0, 0]]
+    route, q0 = _route(pts, ["end", "active", "end"], [False] * 3, [6, 6], 1.001)
+    sub = CableSubsystem(route, AleCable(EA_N=1e6, rhoA_kg_per_m=1.0, damping_s=1e-3), BufferDevice(), gravity=jnp.zeros(3))
+    v_p = 0.01
+    y0 = _state(q0)
+    y0 = CableState(q=q0, qdot=eqx_tree_set_s(y0.qdot, jnp.array([v_p])), dissipated=jnp.zeros(()))
+    ys = _solve(sub, y0, 0.5, rtol=1e-8, n=3)
+    assert float(ys[-1].q.s[0] - ys[0].q.s[0]) == pytest.approx(v_p * 0.5, rel=1e-9)
+    assert float(ys[-1].qdot.s[0]) == pytest.approx(v_p, rel=1e-12)
+    _, s_end = route.nodes(ys[-1].q)
+    assert float(s_end[-1] - s_end[0]) == pytest.approx(float(sub.material_length()), rel=1e-12)
+    t = np.asarray(sub.tensions(ys[-1].q))
+    # s increases toward +x, so s_dot > 0 at the pulley moves material from the right span into the
+    # left one: after quasi-static reeling each span's tension is EA (lam^2 - 1) lam / 2 (Green
+    # strain force) with lam = 10 m / its material length
+    for span, material in ((t[:6], 10.0 / 1.001 + v_p * 0.5), (t[6:], 10.0 / 1.001 - v_p * 0.5)):
+        lam = 10.0 / material
+        assert np.mean(span) == pytest.approx(1e6 * (lam**2 - 1) * lam / 2, rel=5e-3)
+
+
+def eqx_tree_set_s(coords, s):
+    return CableCoords(r=coords.r, s=s, u=coords.u)
