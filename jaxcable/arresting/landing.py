@@ -208,7 +208,8 @@ def plot_landing(run: LandingRun, path: str):
     o = run.outputs
     fig.suptitle(
         f"passive deceleration, fidelity {run.fidelity}: z_max {o['z_max_m']:.2f} m, "
-        f"a_max {o['a_max_g']:.2f} g, sigma_max {o['sigma_max_mpa']:.0f} MPa"
+        f"a_max {o['a_max_g']:.2f} g, sigma_max {o['sigma_max_mpa']:.0f} MPa",
+        fontsize=10,
     )
     fig.tight_layout()
     fig.savefig(path, dpi=110)
