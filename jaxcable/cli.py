@@ -80,7 +80,13 @@ def _land(args) -> int:
         )
         buffer = BufferDevice(counterweight_mass_kg=args.counterweight_mass, brake_force_N=args.brake_force)
         run = run_landing(
-            args.fidelity, capture, buffer=buffer, t_end_s=args.t_end, solver=args.solver, rtol=args.rtol
+            args.fidelity,
+            capture,
+            buffer=buffer,
+            t_end_s=args.t_end,
+            solver=args.solver,
+            rtol=args.rtol,
+            progress=args.fidelity in ("ale", "full") and not args.json,
         )
     except ValueError as err:
         print(f"jaxcable land: error: {err}", file=sys.stderr)

@@ -55,9 +55,12 @@ def run_landing(
     atol: float | None = None,
     max_steps: int | None = None,
     criteria: LandingCriteria = LandingCriteria(),
+    progress: bool = False,
     **scene_kwargs,
 ) -> LandingRun:
-    """Run one passive-deceleration case (default: the design case, Table 1) and report it."""
+    """Run one passive-deceleration case (default: the design case, Table 1) and report it.
+
+    ``progress`` shows a progress bar of simulated time (the ale and full levels take minutes)."""
     from .. import enable_x64
 
     enable_x64()
@@ -78,6 +81,7 @@ def run_landing(
         rtol=rtol or d_rtol,
         atol=atol or (rtol or d_atol),
         max_steps=max_steps or d_steps,
+        progress=progress,
     )
     out = {k: np.asarray(v).item() for k, v in result.outputs.items() if k != "status"}
     out["solver_status"] = result.status_message
