@@ -26,9 +26,11 @@ times on a shared machine: the load average (1/5/15 min) is recorded before and 
 
 Results are written after every case (a killed run keeps what it has). Writes bench_land.json and
 bench_land.md (machine, JAX version, precision, load averages) and bench_land_mesh.png. Usage:
-    python experiments/bench_land.py             # ~20-25 min on 2 busy cores: experiments/results/
+    python experiments/bench_land.py             # ~30 min on 2 busy cores: experiments/results/
+                                                 # (~20 min of it: the first call of the 64-element mesh)
     python experiments/bench_land.py --quick     # a few minutes; experiments/out/bench_land_quick/
-    python experiments/bench_land.py --sections levels --levels rigid ale
+    python experiments/bench_land.py --sections levels --levels rigid ale --keep   # redo one section
+    python experiments/bench_land.py --replot --note "..."   # rewrite .md and .png from the .json
 """
 
 from __future__ import annotations
@@ -72,6 +74,7 @@ def parse_args():
     p.add_argument("--sections", nargs="+", default=list(SECTIONS), choices=SECTIONS)
     p.add_argument("--levels", nargs="+", default=list(LEVELS), choices=LEVELS)
     p.add_argument("--meshes", nargs="+", type=int, default=None, help="uniform span element counts (16 32 64)")
+    p.add_argument("--note", action="append", default=[], help="a note to add to the report (repeatable)")
     p.add_argument("--replot", action="store_true", help="rewrite bench_land.md and the plot from bench_land.json")
     p.add_argument(
         "--keep", action="store_true", help="keep the sections of an existing bench_land.json that this run does not redo"
@@ -203,6 +206,19 @@ def mesh_summary(rows):
         cost_ratios_all={r["label"]: r["run_s"] / graded["run_s"] for r in uni if "run_s" in r},
         coarser_uniform_errors={r["label"]: r["max_rel_error"] for r in coarser},
     )
+    per_output = {}
+    for k in COMPARED:
+        e_k = graded["rel_error_vs_reference"].get(k)
+        if e_k is None:
+            continue
+        m_k = next((r for r in uni if r["rel_error_vs_reference"].get(k, math.inf) <= e_k), ref)
+        per_output[k] = {
+            "graded_rel_error": e_k,
+            "uniform_match": m_k["label"],
+            "uniform_match_is_reference": m_k is ref,
+            "cost_ratio_uniform_over_graded": m_k["run_s"] / graded["run_s"] if "run_s" in m_k else None,
+        }
+    summary["per_output"] = per_output
     return summary
 
 
@@ -354,6 +370,21 @@ def markdown(report):
                 + ", ".join(f"{k} {v:.2f}x" for k, v in sm["cost_ratios_all"].items())
                 + ".",
             ]
+            if sm.get("per_output"):
+                L += ["", "Per output (cheapest uniform mesh at least as accurate as the graded one on that output alone):", "",
+                      "| output | graded error | uniform match | run-time ratio uniform/graded |", "|---|---:|---|---:|"]
+                for k, v in sm["per_output"].items():
+                    ref_mark = " (reference)" if v["uniform_match_is_reference"] else ""
+                    L.append(f"| {k} | {v['graded_rel_error']:.1e} | {v['uniform_match']}{ref_mark} "
+                             f"| {fmt(v['cost_ratio_uniform_over_graded'], '.2f')}x |")
+        compiles = [r["compile_s"] for r in mesh["rows"] if r.get("compile_s") is not None]
+        if compiles:
+            med = float(np.median(compiles))
+            for r in mesh["rows"]:
+                if r.get("compile_s") is not None and r["compile_s"] > 5 * med:
+                    L += ["", f"Compile-time outlier: {r['label']} {r['compile_s']:.0f} s against a median of {med:.0f} s. "
+                          "'compile' = first call - second call, so it includes any one-off cost of the first "
+                          "execution of the compiled program, not only tracing and XLA compilation."]
         L.append("")
     if "sensitivity" in report:
         sens = report["sensitivity"]
@@ -424,7 +455,10 @@ def main():
     out.mkdir(parents=True, exist_ok=True)
     if args.replot:
         report = json.loads((out / "bench_land.json").read_text())
+        report.setdefault("notes", [])
+        report["notes"] += [n for n in args.note if n not in report["notes"]]
         if "mesh" in report:
+            report["mesh"]["summary"] = mesh_summary(report["mesh"]["rows"])
             mesh_plot(report["mesh"]["rows"], out / "bench_land_mesh.png")
         write(report, out)
         print(f"rewrote bench_land.md and bench_land_mesh.png in {out}")
@@ -443,7 +477,7 @@ def main():
             "level_defaults": {k: list(v) for k, v in LEVEL_DEFAULTS.items()},
             "case": "CaptureState() (centre, vertical, 20 m/s), Table 1 defaults",
         },
-        "notes": [],
+        "notes": list(args.note),
     }
     if args.keep and (out / "bench_land.json").exists():
         old = json.loads((out / "bench_land.json").read_text())
