@@ -3,6 +3,9 @@ uses, runs it in float64, and prints a short report or one JSON object (``--json
 
     jaxcable throw [--angle DEG] [--segment-length M] [--plot PATH] [--json]
     jaxcable land  [--fidelity 1dof|rigid|ale|full] [--x M --y M --vz M/S ...] [--plot PATH] [--json]
+    jaxcable land  --phase full [--scenario I|II|III] [the 15 uncertain parameters] [--json]
+    jaxcable sweep --scenario I --n 100 [--phase passive|full] [--fidelity ...] --out results.csv
+    jaxcable design [--vars m_w,F_f,a_p] [--n 64] [--steps 50] [--json]
 """
 
 from __future__ import annotations
@@ -59,7 +62,19 @@ def _throw(args) -> int:
     return 0 if ok else 1
 
 
+_DEVIATED = dict(x=13.0, y=13.0, vx=0.5, vy=0.5, vz=None, theta_x=5.0, theta_y=5.0, theta_z=25.0,
+                 omega_x=0.1, omega_y=0.1, omega_z=0.1)  # fmt: skip
+_DESIGN = dict(x=0.0, y=0.0, vx=0.0, vy=0.0, vz=-20.0, theta_x=0.0, theta_y=0.0, theta_z=0.0,
+               omega_x=0.0, omega_y=0.0, omega_z=0.0)  # fmt: skip
+
+
 def _land(args) -> int:
+    defaults = _DEVIATED if args.phase == "full" else _DESIGN
+    for k, v in defaults.items():
+        if getattr(args, k) is None:
+            setattr(args, k, v)
+    if args.phase == "full":
+        return _land_two_phase(args)
     from .arresting.buffer import BufferDevice
     from .arresting.landing import plot_landing, report_landing, run_landing
     from .arresting.layout import CaptureState
@@ -117,6 +132,78 @@ def _land(args) -> int:
     return 0 if ok else 1
 
 
+def _land_two_phase(args) -> int:
+    from .arresting.buffer import BufferDevice
+    from .arresting.layout import CaptureState
+    from .arresting.two_phase import plot_two_phase, report_two_phase, run_two_phase
+
+    if args.fidelity == "1dof":
+        print("jaxcable land: error: --phase full needs --fidelity rigid, ale or full", file=sys.stderr)
+        return 2
+    try:
+        terminal = CaptureState(
+            x_m=args.x, y_m=args.y, vx_m_s=args.vx, vy_m_s=args.vy,
+            theta_x_deg=args.theta_x, theta_y_deg=args.theta_y, theta_z_deg=args.theta_z,
+            omega_x_deg_s=args.omega_x, omega_y_deg_s=args.omega_y, omega_z_deg_s=args.omega_z,
+        )  # fmt: skip
+        buffer = BufferDevice(counterweight_mass_kg=args.counterweight_mass, brake_force_N=args.brake_force)
+        run = run_two_phase(
+            terminal,
+            scenario=args.scenario,
+            fidelity=args.fidelity,
+            buffer=buffer,
+            passive_t_end_s=args.t_end,
+            gain_per_s=args.gain,
+            motor_delay_s=args.motor_delay,
+            noise_rms_m=args.noise_rms,
+            wind_speed_m_s=args.wind_speed,
+            wind_angle_deg=args.wind_angle,
+            gust_intensity=args.gust_intensity,
+            seed=args.seed,
+        )
+    except ValueError as err:
+        print(f"jaxcable land: error: {err}", file=sys.stderr)
+        return 2
+    out = report_two_phase(run)
+    if args.plot:
+        plot_two_phase(run, args.plot)
+        out["plot"] = args.plot
+    if args.json:
+        print(json.dumps(out))
+    else:
+        yes = {True: "yes", False: "NO"}
+        c = out["captured_state"]
+        print(f"two-phase landing, scenario {args.scenario}, passive fidelity {args.fidelity}")
+        print(f"  captured          {yes[out['captured']]} at t = {out['capture_time_s']:.3f} s "
+              f"(smallest hook margin {out['capture_margin_m']:.3f} m)")  # fmt: skip
+        print(f"  tracking error    {out['tracking_error_m']:.3f} m at t_c/2, "
+              f"{out['tracking_error_at_capture_m']:.3f} m at capture")  # fmt: skip
+        print(f"  captured state    x {c['x_m']:.2f} m, y {c['y_m']:.2f} m, v ({c['vx_m_s']:.2f}, {c['vy_m_s']:.2f}, "
+              f"{c['vz_m_s']:.2f}) m/s, theta ({c['theta_x_deg']:.2f}, {c['theta_y_deg']:.2f}, {c['theta_z_deg']:.2f}) deg")  # fmt: skip
+        print(f"  z_max        {out['z_max_m']:8.3f} m     (< 10 m: {yes[out['z_ok']]})")
+        print(f"  a_max        {out['a_max_g']:8.3f} g     (< 5 g: {yes[out['a_ok']]}; g = 9.80 m/s^2)")
+        print(f"  sigma_max    {out['sigma_max_mpa']:8.1f} MPa   (< 800 MPa: {yes[out['sigma_ok']]})")
+        print(f"  landed (all criteria) {yes[out['landed']]}")
+        print(f"  solver       tracking {out['tracking_solver_status']} ({out['tracking_steps']} steps), "
+              f"passive {out['solver_status']} ({out['num_steps']} steps)")  # fmt: skip
+        if args.plot:
+            print(f"  plot written to {args.plot}")
+    ok = out["solver_status"] in ("successful", "event_occurred")
+    return 0 if ok else 1
+
+
+def _sweep(args) -> int:
+    from .sweep import sweep_main
+
+    return sweep_main(args.rest)
+
+
+def _design(args) -> int:
+    from .design import design_main
+
+    return design_main(args.rest)
+
+
 def _angle(text):
     value = float(text)
     if not 0.0 < value < 90.0:
@@ -152,22 +239,38 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--json", action="store_true", help="print one JSON object")
     t.set_defaults(func=_throw)
 
-    la = sub.add_parser("land", help="one passive-deceleration landing (Table 1 defaults, design case)")
-    la.add_argument("--fidelity", choices=["1dof", "rigid", "ale", "full"], default="full", help="model level (default full)")
-    for flag, unit, default, what in (
-        ("--x", "m", 0.0, "capture position of the hook-plane centre O"),
-        ("--y", "m", 0.0, "capture position of O"),
-        ("--vx", "m/s", 0.0, "velocity of O"),
-        ("--vy", "m/s", 0.0, "velocity of O"),
-        ("--vz", "m/s", -20.0, "vertical velocity of O, z up (default -20: 20 m/s down)"),
-        ("--theta-x", "deg", 0.0, "rotation vector component (inclination)"),
-        ("--theta-y", "deg", 0.0, "rotation vector component (inclination)"),
-        ("--theta-z", "deg", 0.0, "rotation vector component (roll), |theta_z| < 45"),
-        ("--omega-x", "deg/s", 0.0, "angular velocity"),
-        ("--omega-y", "deg/s", 0.0, "angular velocity"),
-        ("--omega-z", "deg/s", 0.0, "angular velocity"),
+    la = sub.add_parser(
+        "land",
+        help="one landing: passive deceleration (default: design case) or, with --phase full, tracking + capture + deceleration",
+    )
+    la.add_argument("--phase", choices=["passive", "full"], default="passive",
+                    help="passive: start captured (issue 3 scene); full: from the terminal-guidance state (default passive)")  # fmt: skip
+    la.add_argument("--fidelity", choices=["1dof", "rigid", "ale", "full"], default="full", help="model level of the passive phase (default full)")
+    la.add_argument("--scenario", choices=["I", "II", "III"], default="I", help="Table 4 scenario (h, t_c, a_p, max wind) for --phase full (default I)")
+    for flag, unit, what in (
+        ("--x", "m", "position of the hook-plane centre O (passive: at capture; full: at the terminal-guidance point)"),
+        ("--y", "m", "position of O"),
+        ("--vx", "m/s", "velocity of O"),
+        ("--vy", "m/s", "velocity of O"),
+        ("--vz", "m/s", "vertical velocity of O, z up (passive only; full: -h/t_c)"),
+        ("--theta-x", "deg", "rotation vector component (inclination)"),
+        ("--theta-y", "deg", "rotation vector component (inclination)"),
+        ("--theta-z", "deg", "rotation vector component (roll), |theta_z| < 45"),
+        ("--omega-x", "deg/s", "angular velocity"),
+        ("--omega-y", "deg/s", "angular velocity"),
+        ("--omega-z", "deg/s", "angular velocity"),
     ):
-        la.add_argument(flag, type=float, default=default, help=f"{what} [{unit}] (default {default:g})")
+        name = flag[2:].replace("-", "_")
+        d_pas, d_full = _DESIGN[name], _DEVIATED[name]
+        la.add_argument(flag, type=float, default=None,
+                        help=f"{what} [{unit}] (default {d_pas:g}; --phase full: {d_full if d_full is not None else '-h/t_c'})")  # fmt: skip
+    la.add_argument("--wind-angle", type=float, default=90.0, help="theta_w, direction the wind blows from, clockwise from north (+y) [deg] (--phase full; default 90)")
+    la.add_argument("--wind-speed", type=float, default=None, help="v_ws, steady wind [m/s] (--phase full; default: the scenario's maximum)")
+    la.add_argument("--gust-intensity", type=float, default=0.1, help="lambda_wg, gust RMS / steady wind [-] (--phase full; default 0.1)")
+    la.add_argument("--motor-delay", type=float, default=0.1, help="tau, motor dead time [s] (--phase full; default 0.1)")
+    la.add_argument("--noise-rms", type=float, default=0.1, help="sigma_r, measurement noise RMS [m] (--phase full; default 0.1)")
+    la.add_argument("--gain", type=float, default=None, help="a_p, PD gain [1/s] (--phase full; default: the scenario's)")
+    la.add_argument("--seed", type=int, default=0, help="seed of the measurement noise and the gust (--phase full; default 0)")
     la.add_argument("--counterweight-mass", type=float, default=920.0, help="m_w, one counterweight [kg] (Table 1: 920)")
     la.add_argument("--brake-force", type=float, default=3.13e5, help="F_f, one brake [N] (Table 1: 3.13e5)")
     la.add_argument("--t-end", type=_positive("--t-end"), default=2.0, help="time simulated after capture [s] (default 2)")
@@ -176,10 +279,27 @@ def build_parser() -> argparse.ArgumentParser:
     la.add_argument("--plot", metavar="PATH", help="write a PNG like the paper's Fig 11")
     la.add_argument("--json", action="store_true", help="print one JSON object")
     la.set_defaults(func=_land)
+
+    sw = sub.add_parser("sweep", help="quasi-Monte Carlo robustness sweep (see jaxcable sweep --help)", add_help=False)
+    sw.add_argument("rest", nargs=argparse.REMAINDER)
+    sw.set_defaults(func=_sweep)
+    de = sub.add_parser("design", help="gradient-based design optimisation (see jaxcable design --help)", add_help=False)
+    de.add_argument("rest", nargs=argparse.REMAINDER)
+    de.set_defaults(func=_design)
     return parser
 
 
 def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    # sweep/design parse their own flags (argparse's REMAINDER does not take a rest starting with "--")
+    if argv[:1] == ["sweep"]:
+        from .sweep import sweep_main
+
+        return sweep_main(argv[1:])
+    if argv[:1] == ["design"]:
+        from .design import design_main
+
+        return design_main(argv[1:])
     args = build_parser().parse_args(argv)
     return args.func(args)
 

@@ -158,7 +158,7 @@ class CaptureState(eqx.Module):
 def _concrete_norm(a, b):
     if isinstance(a, jax.core.Tracer) or isinstance(b, jax.core.Tracer):
         return None
-    return float(np.hypot(np.asarray(a, float), np.asarray(b, float)))
+    return float(np.max(np.hypot(np.asarray(a, float), np.asarray(b, float))))
 
 
 def check_hooks_inside_frame(layout: ArrestingLayout, capture: CaptureState):

@@ -244,6 +244,7 @@ def passive_landing_scene(
     n_rocket_bodies: int = 5,
     t_end_s: float = 2.0,
     cable_damping_s: float = 1e-5,
+    frame_centre_xy=None,
 ):
     """The passive-deceleration scene with the paper's Table 1 defaults at a fidelity level
     (``rigid``, ``ale`` or ``full``; the ``1dof`` level is run by :func:`run_landing`).
@@ -260,6 +261,9 @@ def passive_landing_scene(
       cable node was the stiffest rate of the model at v_s = 0.01 m/s (22k steps per 0.3 s against
       2.7k at 0.3 m/s, z_max within 0.03%).
     * 16 span elements, 8 of them over +-3 m around each hook (0.75 m), 2 per tower.
+
+    ``frame_centre_xy`` (2,) [m]: centre of the capture frame (the sliders' positions) at capture;
+    default: under O (perfect tracking). The two-phase scene passes the tracked frame's centre.
     """
     from ..body.landing_rocket import flexible_landing_rocket, rigid_landing_rocket
     from .contact import ContactLaw
@@ -288,7 +292,7 @@ def passive_landing_scene(
     state0 = rocket.initial_state(capture.position, capture.velocity, capture.rotation_vector, capture.omega)
     pos0, vel0 = rocket.hook_points_world(state0)
     hooks0 = HookPoints(positions=pos0, velocities=vel0)
-    frame_centre = capture.position[:2]
+    frame_centre = capture.position[:2] if frame_centre_xy is None else jnp.asarray(frame_centre_xy)
     if fidelity == "rigid":
         cables = MasslessCables.build(layout, buffer, frame_centre, hooks0, w, damping_s=cable_damping_s)
     else:

@@ -180,12 +180,14 @@ def _element_slices(x):
     return jnp.stack([x[:-1], x[1:]], axis=1)
 
 
-def assemble(cable, state, external_acc=jnp.zeros(3)):
+def assemble(cable, state, external_acc=None):
     """Global mass matrix (4n, 4n) [SI blocks] and force ``Q = Q_s + Q_E + Q_f`` (4n,).
 
     ``external_acc`` (3,) [m/s^2] is a uniform acceleration field (gravity); the load is
     ``f = rhoA * external_acc`` per unit material length. Dense; fine for tens of elements.
     """
+    if external_acc is None:
+        external_acc = jnp.zeros(3)
     n = state.r.shape[0]
     load = cable.rhoA_kg_per_m * jnp.asarray(external_acc)
     M_e, Q_s, Q_E, Q_f = jax.vmap(element_matrices, in_axes=(None, 0, 0, 0, 0, None))(
@@ -209,7 +211,7 @@ def _fixed_dof_mask(n, fixed_r_mask, fixed_s_mask):
     return jnp.concatenate([fr, fs[:, None]], axis=1).reshape(4 * n)
 
 
-def ale_cable_vector_field(cable, state, fixed_r_mask, fixed_s_mask, external_acc=jnp.zeros(3)):
+def ale_cable_vector_field(cable, state, fixed_r_mask, fixed_s_mask, external_acc=None):
     """Time derivative of an :class:`AleState`: solves ``M qdd = Q`` for the free coordinates.
 
     Args:
@@ -225,6 +227,8 @@ def ale_cable_vector_field(cable, state, fixed_r_mask, fixed_s_mask, external_ac
     Returns:
         ``AleState(r=v, s=sdot, v=r_dd (n,3) [m/s^2], sdot=s_dd (n,) [m/s^2])``.
     """
+    if external_acc is None:
+        external_acc = jnp.zeros(3)
     n = state.r.shape[0]
     M, Q = assemble(cable, state, external_acc)
     fixed = _fixed_dof_mask(n, fixed_r_mask, fixed_s_mask)
@@ -235,13 +239,15 @@ def ale_cable_vector_field(cable, state, fixed_r_mask, fixed_s_mask, external_ac
     return AleState(r=state.v, s=state.sdot, v=qdd[:, :3], sdot=qdd[:, 3])
 
 
-def cable_energy(cable, state, external_acc=jnp.zeros(3)):
+def cable_energy(cable, state, external_acc=None):
     """``(kinetic, elastic, gravitational)`` energies [J] of the discretised cable.
 
     Kinetic: ``q_dot^T M q_dot / 2`` with the consistent ALE mass matrix (material-velocity terms
     included). Elastic: ``sum_e L_e EA psi(eps_e)`` (tension only, smoothed as the force is).
     Gravitational: ``-sum_e rhoA L_e external_acc . (r1 + r2)/2`` (exact for linear interpolation).
     """
+    if external_acc is None:
+        external_acc = jnp.zeros(3)
     n = state.r.shape[0]
     M, _ = assemble(cable, state, external_acc)
     qdot = jnp.concatenate([state.v, state.sdot[:, None]], axis=1).reshape(4 * n)

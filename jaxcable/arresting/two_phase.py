@@ -1,0 +1,508 @@
+r"""The full two-phase landing: active tracking/capturing, then passive deceleration.
+
+Arresting-cable paper, sections II.A, III.D-E and IV.A-B (Figs 12-14, Tables 3-5). A rocket starts at
+its terminal-guidance state ``h`` above the capture plane; the capture frame, moved by four servo
+motors under the PD law, tracks the rocket's target point; the hooks reach the cables; the motors
+power down and the buffer devices stop the rocket (the passive scene of :mod:`.passive`).
+
+Phase 1 (tracking), :class:`TrackingScene`. Components: the rigid rocket (hooks welded, 6 DOF), the
+controller (:mod:`.control`: noisy, filtered measurement of head and bottom, target rule eq 3, PD law
+with the ramp eqs 4-6, motor lag and dead time eqs 7-8 as a state space, eq 46), wind and gusts with
+aerodynamic loads on the rocket (:mod:`.wind`, eqs 43-45). Modelling choices, each stated:
+
+* **Descent.** The paper's scenarios have ``h / t_c = 20 m/s`` for all three (Table 4): the rocket
+  descends at the constant speed of the design case. We model the engine of the terminal guidance as
+  holding the descent: its thrust balances gravity body by body and the vertical aerodynamic force,
+  so the vertical speed stays ``h / t_c``; lateral motion and attitude are free (wind, rates).
+  The engine shuts down at capture; the passive phase has gravity and no thrust.
+* **Cables during tracking.** Before the hooks reach them the cables act on the rocket through
+  nothing: they are straight, pre-tensioned lines between the sliders, placed by the sliders'
+  displacements ``d`` (eq 47: the reel-out displacement equals the slider's). Their sag
+  (``w L^2 / 8 T`` = 0.6 m for a 50 m span at 5e4 N) and wind sway are neglected in phase 1.
+* **Phase switch** (the paper: "triggered by the contact force and the heights of the hooks"): a
+  diffrax event with a root finder at the instant the mean height of the four hook throats crosses
+  the capture plane (``z = 0``); the event time is differentiable (diffrax solves it by Newton's
+  method and differentiates the root implicitly). At that instant each hook's **capture margin** is
+  the distance [m] by which its cable lies inside the throat, across the cable: between the rocket's
+  shell (the hinge) and the barb, less the hook and cable radii. All four margins > 0: captured.
+* **Phase 2** starts from the captured state (position, velocity, attitude and rates of ``O``,
+  exactly those of Table 5) and the frame's centre at capture, at the requested fidelity level. The
+  flexible rocket of level ``full`` starts undeformed (its gust-driven vibration in phase 1 is not
+  carried over: the tracking phase uses the rigid rocket at every level).
+
+Outputs (:func:`two_phase_outputs`): ``captured``, ``capture_margin_m`` (smallest of the four),
+``tracking_error_m`` at ``t_c / 2`` and at capture, ``capture_time_s``, the captured state, and the
+passive phase's outputs (z_max, a_max, sigma_max, stop time, criteria) of :func:`.passive.landing_outputs`.
+Success (section IV.A): tracking error converged (below ``tracking_tolerance_m`` at capture), all
+four hooks engaged, and the three passive criteria.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .._validation import check_choice, check_positive
+from ..scene import AbstractScene
+from .buffer import BufferDevice
+from .cable_sets import throat_weights
+from .control import TrackingController, filtered_measurement, measurement_noise_track, target_point
+from .layout import HOOK_OF_CABLE, ArrestingLayout, CaptureState
+from .passive import LandingCriteria, landing_outputs, passive_landing_scene, smooth_landing_outputs
+from .wind import AeroCoefficients, WindField, rocket_aero_loads
+
+__all__ = [
+    "SCENARIO_SETTINGS",
+    "TrackingScene",
+    "TrackingState",
+    "TwoPhaseRun",
+    "deviated_case",
+    "run_two_phase",
+    "tracking_scene",
+    "two_phase_outputs",
+]
+
+SCENARIO_SETTINGS = {
+    # Table 4: max steady wind [m/s], terminal-guidance height h [m], tracking time t_c [s], gain a_p [1/s]
+    "I": dict(wind_speed_max_m_s=5.0, height_m=200.0, tracking_time_s=10.0, gain_per_s=2.0),
+    "II": dict(wind_speed_max_m_s=10.0, height_m=120.0, tracking_time_s=6.0, gain_per_s=5.0),
+    "III": dict(wind_speed_max_m_s=20.0, height_m=100.0, tracking_time_s=5.0, gain_per_s=6.0),
+}
+
+# outward normal of each cable's line (cables: east, west, north, south; see layout.py)
+_CABLE_NORMAL = np.array([[1.0, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0]])
+# slider displacement d_k moves cable k along x (k = 0, 1) or y (k = 2, 3)
+_CABLE_AXIS = np.array([[1.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 1, 0]])
+
+
+def deviated_case() -> CaptureState:
+    """Terminal-guidance state of the deviated case of section IV.A (z, vz set by the scenario):
+    x = y = 13 m, vx = vy = 0.5 m/s, theta_x = theta_y = 5 deg, theta_z = 25 deg, rates 0.1 deg/s."""
+    return CaptureState(
+        x_m=13.0, y_m=13.0, vx_m_s=0.5, vy_m_s=0.5, theta_x_deg=5.0, theta_y_deg=5.0, theta_z_deg=25.0,
+        omega_x_deg_s=0.1, omega_y_deg_s=0.1, omega_z_deg_s=0.1,
+    )  # fmt: skip
+
+
+class TrackingState(eqx.Module):
+    rocket: eqx.Module
+    controller: eqx.Module
+
+
+class TrackingScene(AbstractScene):
+    """Phase 1: rocket descending under wind while the capture frame tracks it; ends when the hook
+    throats reach the capture plane (terminal event)."""
+
+    rocket: eqx.Module
+    controller: TrackingController
+    wind: WindField
+    aero: AeroCoefficients
+    noise: eqx.Module
+    layout: ArrestingLayout
+    terminal: CaptureState
+    """State of ``O`` at the terminal-guidance point (t = 0): z_m = h, vz = -h / t_c."""
+    throat_w: jax.Array
+    """(3,) affine weights of the throat on (hinge, tip, barb end) (:func:`throat_weights`)."""
+    clearance_m: jax.Array
+    """Hook radius + cable radius [m]."""
+    t_max_s: float = eqx.field(static=True, default=15.0)
+    """End of phase 1 if the hooks never reach the plane [s] (1.5 t_c by the builder)."""
+    n_save: int = eqx.field(static=True, default=201)
+
+    def initial_state(self):
+        c = self.terminal
+        return TrackingState(
+            rocket=self.rocket.initial_state(c.position, c.velocity, c.rotation_vector, c.omega),
+            controller=self.controller.initial_state(),
+        )
+
+    # -- pieces ----------------------------------------------------------------------------------
+
+    def throats(self, rocket_state):
+        """World positions (4, 3) of the four hooks' throats (hook order)."""
+        pos, _ = self.rocket.hook_points_world(rocket_state)
+        return jnp.einsum("j,kjd->kd", self.throat_w, pos)
+
+    def error(self, t, state):
+        """Controller error e = d_target - d (4,) [m], the target (2,) and the true target (2,)."""
+        x, v = self.rocket.head_and_bottom_world(state.rocket)
+        measured = filtered_measurement(x, v, t, self.noise, self.controller.sample_period_s)
+        target = target_point(measured[0], measured[1])
+        true_target = target_point(x[0], x[1])
+        d = self.controller.slider_displacement(state.controller)
+        d_target = jnp.stack([target[0], target[0], target[1], target[1]])
+        return d_target - d, target, true_target
+
+    def frame_centre(self, state):
+        d = self.controller.slider_displacement(state.controller)
+        return jnp.stack([0.5 * (d[0] + d[1]), 0.5 * (d[2] + d[3])])
+
+    def vector_field(self, t, state):
+        e, _, _ = self.error(t, state)
+        dctrl, _, _ = self.controller.derivative(t, state.controller, e)
+        loads = rocket_aero_loads(self.rocket, state.rocket, self.wind, t, self.aero)
+        # guidance thrust: gravity is balanced body by body (gravity argument zero) and the net
+        # vertical aerodynamic force by a force at the hook-parent body's CoM.
+        fz = sum(jnp.sum(f[..., 2]) for _, _, f in loads)
+        hold = (self.rocket.hook_parent_body, jnp.zeros((1, 3)), jnp.array([[0.0, 0.0, -1.0]]) * fz)
+        drocket = self.rocket.derivative(state.rocket, jnp.zeros(3), point_forces=tuple(loads) + (hold,))
+        return TrackingState(rocket=drocket, controller=dctrl)
+
+    def terminal_event(self, t, state):
+        return jnp.mean(self.throats(state.rocket)[:, 2])
+
+    @property
+    def has_terminal_event(self) -> bool:
+        return True
+
+    def capture_margins(self, state):
+        """(4,) capture margin of each cable's hook [m]: > 0 when the cable lies inside the throat
+        (between shell and barb, across the cable), evaluated in the horizontal plane."""
+        pos, _ = self.rocket.hook_points_world(state.rocket)
+        order = np.array(HOOK_OF_CABLE)
+        hinge, barb = pos[order, 0], pos[order, 2]
+        d = self.controller.slider_displacement(state.controller)
+        l1 = self.layout.frame_half_width_m
+        n = jnp.asarray(_CABLE_NORMAL)
+        cable = l1 + jnp.sum(n * jnp.asarray(_CABLE_AXIS), axis=1) * d  # outward coordinate of each cable
+        inner = jnp.sum(n * hinge, axis=1)
+        outer = jnp.sum(n * barb, axis=1)
+        return jnp.minimum(cable - inner, outer - cable) - self.clearance_m
+
+    def default_save_ts(self, t1):
+        return jnp.linspace(0.0, t1, self.n_save)
+
+    def default_snapshot_ts(self, t1):
+        return jnp.reshape(jnp.asarray(t1, dtype=float), (1,))
+
+    def probe(self, t, state):
+        e, target, true_target = self.error(t, state)
+        _, v_p, d = self.controller.derivative(t, state.controller, e)
+        o, vo = self.rocket.reference_point(state.rocket)
+        centre = self.frame_centre(state)
+        return dict(
+            error_m=e,
+            tracking_error_m=jnp.linalg.norm(centre - target),
+            true_tracking_error_m=jnp.linalg.norm(centre - true_target),
+            target_xy_m=target,
+            frame_centre_xy_m=centre,
+            reelout_speed_m_s=v_p,
+            slider_displacement_m=d,
+            o_position_m=o,
+            o_velocity_m_s=vo,
+            throat_height_m=jnp.mean(self.throats(state.rocket)[:, 2]),
+        )
+
+    def snapshot(self, t, state):
+        return state
+
+    def summarize(self, result):
+        return {}
+
+
+def tracking_scene(
+    terminal: CaptureState | None = None,
+    *,
+    scenario: str = "I",
+    height_m=None,
+    tracking_time_s=None,
+    gain_per_s=None,
+    motor_delay_s=0.1,
+    noise_rms_m=0.1,
+    wind_speed_m_s=None,
+    wind_angle_deg=90.0,
+    gust_intensity=0.1,
+    seed=0,
+    layout: ArrestingLayout | None = None,
+    controller_kwargs=None,
+    wind_kwargs=None,
+    aero: AeroCoefficients | None = None,
+):
+    """Phase 1 of a two-phase landing with the paper's scenario settings (Table 4), overridable.
+
+    ``terminal``: x, y, velocities, attitude and rates at the terminal-guidance point (default: the
+    deviated case of section IV.A); its ``z_m`` and ``vz_m_s`` are replaced by ``h`` and ``-h / t_c``.
+    ``wind_speed_m_s`` defaults to the scenario's maximum steady wind. ``seed`` fixes the measurement
+    noise and the gust (reproducible)."""
+    from ..body.landing_rocket import rigid_landing_rocket
+
+    check_choice("scenario", scenario, SCENARIO_SETTINGS)
+    s = SCENARIO_SETTINGS[scenario]
+    h = s["height_m"] if height_m is None else height_m
+    t_c = s["tracking_time_s"] if tracking_time_s is None else tracking_time_s
+    a_p = s["gain_per_s"] if gain_per_s is None else gain_per_s
+    v_ws = s["wind_speed_max_m_s"] if wind_speed_m_s is None else wind_speed_m_s
+    check_positive("height_m", h)
+    check_positive("tracking_time_s", t_c)
+    terminal = deviated_case() if terminal is None else terminal
+    terminal = eqx.tree_at(
+        lambda c: (c.z_m, c.vz_m_s), terminal, (jnp.asarray(h, float), -jnp.asarray(h, float) / t_c)
+    )
+    layout = ArrestingLayout() if layout is None else layout
+    rocket = rigid_landing_rocket(hinged_hooks=False)
+    controller = TrackingController(
+        gain_per_s=a_p, tracking_time_s=t_c, motor_delay_s=motor_delay_s, noise_rms_m=noise_rms_m,
+        **(controller_kwargs or {}),
+    )  # fmt: skip
+    key = jax.random.PRNGKey(seed) if not isinstance(seed, jax.Array) or seed.ndim == 0 else seed
+    k_noise, k_wind = jax.random.split(key)
+    noise = measurement_noise_track(k_noise, controller, t_end_s=2.0 * t_c)
+    wind = WindField(speed_m_s=v_ws, angle_deg=wind_angle_deg, gust_intensity=gust_intensity, key=k_wind,
+                     **(wind_kwargs or {}))  # fmt: skip
+    state0 = rocket.initial_state(terminal.position, terminal.velocity, terminal.rotation_vector, terminal.omega)
+    pos0, _ = rocket.hook_points_world(state0)
+    clearance = 0.5 * rocket.params.hook_diameter_m + layout.cable_radius_m
+    w = throat_weights(pos0[0, 0], pos0[0, 1], pos0[0, 2], clearance)
+    return TrackingScene(
+        rocket=rocket,
+        controller=controller,
+        wind=wind,
+        aero=AeroCoefficients() if aero is None else aero,
+        noise=noise,
+        layout=layout,
+        terminal=terminal,
+        throat_w=w,
+        clearance_m=jnp.asarray(clearance),
+        t_max_s=1.5 * float(t_c),
+    )
+
+
+def _captured_state(scene: TrackingScene, state) -> CaptureState:
+    o, vo = scene.rocket.reference_point(state.rocket)
+    rotvec, omega = scene.rocket.reference_attitude(state.rocket)
+    deg = 180.0 / jnp.pi
+    return CaptureState(
+        x_m=o[0], y_m=o[1], z_m=o[2], vx_m_s=vo[0], vy_m_s=vo[1], vz_m_s=vo[2],
+        theta_x_deg=rotvec[0] * deg, theta_y_deg=rotvec[1] * deg, theta_z_deg=rotvec[2] * deg,
+        omega_x_deg_s=omega[0] * deg, omega_y_deg_s=omega[1] * deg, omega_z_deg_s=omega[2] * deg,
+    )  # fmt: skip
+
+
+def _interp(ts, ys, t):
+    finite = jnp.isfinite(ts)
+    ts_ = jnp.where(finite, ts, jnp.max(jnp.where(finite, ts, -jnp.inf)))
+    return jnp.interp(t, ts_, ys)
+
+
+def two_phase_outputs(
+    scene: TrackingScene,
+    fidelity: str = "rigid",
+    buffer: BufferDevice | None = None,
+    *,
+    passive_t_end_s: float = 2.0,
+    tracking_tolerance_m: float = 0.5,
+    margin_width_m: float = 0.02,
+    criteria: LandingCriteria = LandingCriteria(),
+    solver_settings=None,
+    passive_kwargs=None,
+    keep_histories: bool = False,
+):
+    """Both phases of one landing as one pure function (vmappable, differentiable): dict of arrays.
+
+    The smooth outputs (``smooth_*``) are for gradients: a soft minimum of the capture margins
+    (width ``margin_width_m``) and the soft maxima of :func:`smooth_landing_outputs`."""
+    from ..simulate import simulate
+    from .landing import LEVEL_DEFAULTS
+
+    check_choice("fidelity", fidelity, ("rigid", "ale", "full"))
+    t_c = scene.controller.tracking_time_s
+    track = simulate(scene, scene.t_max_s, rtol=1e-6, atol=1e-6, max_steps=100_000)
+    final = track.final_state
+    margins = scene.capture_margins(final)
+    margin = jnp.min(margins)
+    smooth_margin = -margin_width_m * jax.scipy.special.logsumexp(-margins / margin_width_m)
+    err_half = _interp(track.ts, track.probes["tracking_error_m"], 0.5 * t_c)
+    err_capture = track.probes["tracking_error_m"][jnp.argmax(jnp.where(jnp.isfinite(track.ts), track.ts, -1.0))]
+    capture = _captured_state(scene, final)
+    captured = (margin > 0.0) & (err_capture < tracking_tolerance_m) & _event_occurred(track.status)
+    centre = scene.frame_centre(final)
+    solver, rtol, atol, steps = (solver_settings or {}).get(fidelity, LEVEL_DEFAULTS[fidelity])
+    passive = passive_landing_scene(
+        fidelity, capture, scene.layout, buffer, frame_centre_xy=centre, t_end_s=passive_t_end_s,
+        **(passive_kwargs or {}),
+    )  # fmt: skip
+    land = simulate(passive, passive_t_end_s, solver=solver, rtol=rtol, atol=atol, max_steps=steps)
+    hard = landing_outputs(land.ts, land.probes, land.status, criteria)
+    smooth = smooth_landing_outputs(land.ts, land.probes)
+    out = dict(
+        captured=captured,
+        capture_margin_m=margin,
+        smooth_capture_margin_m=smooth_margin,
+        capture_margins_m=margins,
+        tracking_error_m=err_half,
+        tracking_error_at_capture_m=err_capture,
+        capture_time_s=track.t_final,
+        tracking_status=track.status,
+        tracking_steps=track.num_steps,
+        captured_state=capture,
+        frame_centre_at_capture_m=centre,
+        **{k: v for k, v in hard.items() if k != "status"},
+        passive_status=land.status,
+        passive_steps=land.num_steps,
+        **{f"smooth_{k}": v for k, v in smooth.items()},
+    )
+    out["landed"] = captured & hard["criteria_met"]
+    if keep_histories:
+        out["tracking"] = track
+        out["passive"] = land
+    return out
+
+
+def _event_occurred(status):
+    import diffrax
+
+    return status == int(diffrax.RESULTS.event_occurred._value)
+
+
+@dataclasses.dataclass
+class TwoPhaseRun:
+    """Outputs of one two-phase landing (floats/bools/dicts), and the two phases' results."""
+
+    outputs: dict
+    tracking: object
+    passive: object
+    fidelity: str
+    scenario: str
+
+
+def run_two_phase(
+    terminal: CaptureState | None = None,
+    *,
+    scenario: str = "I",
+    fidelity: str = "rigid",
+    buffer: BufferDevice | None = None,
+    passive_t_end_s: float = 2.0,
+    **scene_kwargs,
+) -> TwoPhaseRun:
+    """Run one two-phase landing (default: the deviated case of section IV.A in scenario I)."""
+    from .. import enable_x64
+
+    enable_x64()
+    scene = tracking_scene(terminal, scenario=scenario, **scene_kwargs)
+    fn = eqx.filter_jit(
+        lambda sc, buf: two_phase_outputs(sc, fidelity, buf, passive_t_end_s=passive_t_end_s, keep_histories=True)
+    )
+    out = fn(scene, BufferDevice() if buffer is None else buffer)
+    tracking, passive = out.pop("tracking"), out.pop("passive")
+    return TwoPhaseRun(_to_python(out), tracking, passive, fidelity, scenario)
+
+
+def _to_python(out):
+    res = {}
+    for k, v in out.items():
+        if isinstance(v, CaptureState):
+            res[k] = {f: float(getattr(v, f)) for f in v.__dataclass_fields__}
+        else:
+            a = np.asarray(v)
+            res[k] = a.item() if a.ndim == 0 else a.tolist()
+    return res
+
+
+
+def report_two_phase(run: TwoPhaseRun) -> dict:
+    """The JSON-able summary of a two-phase run (``jaxcable land --phase full --json``)."""
+    from ..simulate import status_message
+
+    o = run.outputs
+    out = {
+        k: o[k]
+        for k in (
+            "captured",
+            "landed",
+            "capture_margin_m",
+            "capture_margins_m",
+            "tracking_error_m",
+            "tracking_error_at_capture_m",
+            "capture_time_s",
+            "captured_state",
+            "frame_centre_at_capture_m",
+            "z_max_m",
+            "a_max_g",
+            "sigma_max_mpa",
+            "stop_time_s",
+            "criteria_met",
+            "z_ok",
+            "a_ok",
+            "sigma_ok",
+            "stopped",
+            "energy_budget_error",
+        )
+    }
+    for k, v in list(out.items()):
+        if isinstance(v, float) and not np.isfinite(v):
+            out[k] = None
+    out["criteria_met"] = bool(o["criteria_met"]) and bool(o["captured"])
+    out["passive_criteria_met"] = bool(o["criteria_met"])
+    out["tracking_solver_status"] = status_message(o["tracking_status"])
+    out["tracking_steps"] = int(o["tracking_steps"])
+    out["solver_status"] = status_message(o["passive_status"])
+    out["num_steps"] = int(o["passive_steps"])
+    out["fidelity"] = run.fidelity
+    out["scenario"] = run.scenario
+    out["phase"] = "full"
+    return out
+
+
+def plot_two_phase(run: TwoPhaseRun, path: str):
+    """A PNG like the paper's Figs 13-14: tracking error, frame centre and target, reel-out speeds,
+    then the passive phase's drop, acceleration, cable stress and hook contact forces."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .passive import G_CRITERIA
+
+    tr, pa = run.tracking, run.passive
+    ts = np.asarray(tr.ts)
+    ok = np.isfinite(ts)
+    p = {k: np.asarray(v) for k, v in tr.probes.items()}
+    tp = np.asarray(pa.ts)
+    okp = np.isfinite(tp)
+    q = {k: np.asarray(v) for k, v in pa.probes.items() if k != "energy"}
+    t_cap = run.outputs["capture_time_s"]
+    fig, ax = plt.subplots(4, 2, figsize=(11, 11))
+    ax = ax.ravel()
+    ax[0].plot(ts[ok], p["tracking_error_m"][ok], label="|frame centre - measured target|")
+    ax[0].plot(ts[ok], p["true_tracking_error_m"][ok], "--", label="|frame centre - true target|")
+    ax[0].set_yscale("log")
+    ax[0].set_ylabel("tracking error [m]")
+    ax[0].legend(fontsize=7)
+    for i, lab in enumerate("xy"):
+        ax[1].plot(ts[ok], p["frame_centre_xy_m"][ok, i], label=f"frame centre {lab}")
+        ax[1].plot(ts[ok], p["target_xy_m"][ok, i], ":", label=f"target {lab}")
+    ax[1].set_ylabel("position [m]")
+    ax[1].legend(fontsize=7)
+    ax[2].plot(ts[ok], p["reelout_speed_m_s"][ok])
+    ax[2].set_ylabel("reel-out speed v_p [m/s]")
+    ax[3].plot(ts[ok], p["throat_height_m"][ok])
+    ax[3].set_ylabel("hook throat height [m]")
+    for a in ax[:4]:
+        a.set_xlabel("time since terminal guidance [s]")
+    ax[4].plot(tp[okp] + t_cap, q["drop_m"][okp])
+    ax[4].axhline(10.0, color="r", ls=":", lw=1)
+    ax[4].set_ylabel("drop z [m]")
+    ax[5].plot(tp[okp] + t_cap, np.linalg.norm(q["acceleration_m_s2"][okp], axis=1) / G_CRITERIA)
+    ax[5].axhline(5.0, color="r", ls=":", lw=1)
+    ax[5].set_ylabel("|acceleration| [g]")
+    ax[6].plot(tp[okp] + t_cap, q["stress_max_pa"][okp] / 1e6)
+    ax[6].axhline(800.0, color="r", ls=":", lw=1)
+    ax[6].set_ylabel("max cable stress [MPa]")
+    ax[7].plot(tp[okp] + t_cap, q["hook_normal_force_N"][okp] / 1e3)
+    ax[7].set_ylabel("hook-cable force [kN]")
+    for a in ax[4:]:
+        a.set_xlabel("time [s]")
+    o = run.outputs
+    fig.suptitle(
+        f"two-phase landing, scenario {run.scenario}, passive fidelity {run.fidelity}: captured {o['captured']}, "
+        f"z_max {o['z_max_m']:.2f} m, a_max {o['a_max_g']:.2f} g, sigma_max {o['sigma_max_mpa']:.0f} MPa",
+        fontsize=10,
+    )
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path

@@ -1,0 +1,1037 @@
+r"""Quasi-Monte Carlo robustness sweeps: batched, sharded over devices, resumable, summarised.
+
+Arresting-cable paper, section IV: 100 Halton cases per wind scenario (Tables 2, 3, 4, 8), the
+success criteria of section IV.A (z_max < 10 m, a_max < 5 g, sigma_max < 800 MPa), the statistics of
+Tables 6, 7 and 9, the time histories of Figs 18-20 and the criteria over the landing plane of
+Fig 21. The points come from :mod:`jaxcable.arresting.uncertainty`.
+
+How a sweep is built (physics stays single-case, STYLE.md 3):
+
+* A **case function** maps one case's parameters to its scalar outputs,
+  ``case_fn(params: dict[str, scalar]) -> dict[str, scalar]``. It is an ``eqx.Module`` (its array
+  fields, e.g. the buffer device, are parameters too). :class:`PassiveCaseFunction` runs the
+  passive-deceleration phase; a two-phase case function will be registered for ``phase="full"``
+  with :func:`register_case_fn` (until then :func:`case_fn_for` says it is not available).
+* :func:`run_sweep` lifts it with ``jax.vmap`` over chunks of ``batch_size`` cases; each chunk is
+  sharded over the local devices (a 1-D ``Mesh``, ``NamedSharding`` on the case axis, the chunk
+  padded to a multiple of the device count) and run under ``jax.shard_map``, so each device
+  integrates its own cases in its own ``while`` loop (no cross-device step synchronisation).
+* Rows are appended to a tidy CSV as each chunk finishes (whole lines, flush, fsync) with a sidecar
+  JSON holding the sweep's identity; a restarted sweep drops a trailing partial line, skips the cases
+  already written, and refuses to resume when its arguments differ. A case whose solver did not
+  succeed, or whose outputs are not finite, is a row with ``failed=True`` and its solver status.
+
+Readings and choices, written down:
+
+* The passive phase starts at capture (hooks engaged, Table 8 states, vz = -20 m/s). The sampled
+  wind (angle, speed, gust intensity) is **recorded but not applied**: the passive scene has no wind
+  component yet (the paper finds its effect on the passive phase negligible, section IV.C). Time
+  delay and noise are 0 in the passive phase (Table 4).
+* ``captured`` in the passive phase: every hook carries a nonzero cable force at some saved time (the
+  paper's capture criterion, "contact forces ... nonzero", section IV.A). ``stopped``: the descent
+  stopped within ``t_end_s``. ``success`` = captured and stopped and all three criteria met. The
+  ``margin`` of a criterion is limit - value (positive when met), in the criterion's unit.
+* The maxima are over saved samples 1 ms apart over ``[0, t_end_s]`` (t_end_s = 2 s by default;
+  both chosen by measurement, see :func:`passive_case_fn`).
+* The sweep's default fidelity is ``rigid`` (rigid 6-DOF rocket, massless elastic cables) because of
+  cost: a 2 s case takes ~0.1 s once compiled (batch 8-32, one CPU core), against ~3.6 s per 0.3 s
+  simulated for ``ale`` (~17k steps per simulated second; ``experiments/bench_sweep.py``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import diffrax
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ._validation import check_choice, check_positive
+from .arresting.buffer import BufferDevice
+from .arresting.layout import ArrestingLayout, CaptureState
+from .arresting.passive import G_CRITERIA, LandingCriteria
+from .arresting.uncertainty import (
+    CAPTURE_VZ_M_S,
+    PHASES,
+    SCENARIOS,
+    UNCERTAIN_PARAMETERS,
+    halton_samples,
+)
+
+__all__ = [
+    "AbstractCaseFunction",
+    "CRITERIA",
+    "PassiveCaseFunction",
+    "SAVE_SPACING_S",
+    "SWEEP_FIDELITIES",
+    "case_fn_for",
+    "merge_sweep_csvs",
+    "passive_case_fn",
+    "plot_histories",
+    "plot_landing_plane",
+    "process_indices",
+    "read_sweep_csv",
+    "register_case_fn",
+    "run_histories",
+    "run_qmc_sweep",
+    "run_sweep",
+    "summarize_sweep",
+    "summary_markdown",
+    "sweep_main",
+]
+
+SWEEP_FIDELITIES = ("rigid", "ale", "full")
+"""Fidelity levels a sweep runs (the 1-DOF level models the central vertical landing only)."""
+
+CRITERIA = (
+    ("z_max_m", "z_ok", "z_margin_m", "z_max_m", "m"),
+    ("a_max_g", "a_ok", "a_margin_g", "a_max_g", "g"),
+    ("sigma_max_mpa", "sigma_ok", "sigma_margin_mpa", "sigma_max_mpa", "MPa"),
+)
+"""Per criterion: (output, its ok flag, its margin, the LandingCriteria field, unit)."""
+
+ALLOWED_NONFINITE = {"stop_time_s": "stopped"}
+"""Outputs that may be non-finite without marking the case failed, with the flag that explains it
+(a case that did not stop within ``t_end_s`` has no stop time)."""
+
+SAVE_SPACING_S = 1e-3
+"""Default spacing of the saved samples of a passive case [s] (see :func:`passive_case_fn`)."""
+
+_OK_STATUS = tuple(int(r._value) for r in (diffrax.RESULTS.successful, diffrax.RESULTS.event_occurred))
+_AXIS = "cases"
+
+
+# ------------------------------------------------------------------------------------------------
+# Case functions
+# ------------------------------------------------------------------------------------------------
+
+
+class AbstractCaseFunction(eqx.Module):
+    """One case: ``__call__(params) -> dict`` of scalar outputs (``status_code`` and ``num_steps``
+    among them); optionally ``histories(params) -> dict`` of time histories for plots.
+
+    A case function whose set-up needs concrete numbers (e.g. a mesh built with NumPy) splits into
+    ``build(params) -> case`` (host, concrete scalars) and ``solve(case)`` /
+    ``solve_histories(case)`` (traced), and says so with ``host_build = True``: the sweep then builds
+    every case of a chunk on the host, stacks them (their static structure must agree) and vmaps
+    ``solve`` over the stack. ``__call__`` stays the single-case entry point either way."""
+
+    @property
+    def host_build(self) -> bool:
+        return False
+
+    def __call__(self, params: dict) -> dict:
+        raise NotImplementedError
+
+    def histories(self, params: dict) -> dict:
+        raise NotImplementedError(f"{type(self).__name__} keeps no time histories")
+
+    def describe(self) -> dict:
+        """JSON-able identity of the case function (stored with a sweep; resume checks it)."""
+        leaves = jax.tree_util.tree_leaves_with_path(self)
+        return {
+            "type": type(self).__name__,
+            **{jax.tree_util.keystr(p): np.asarray(v).tolist() for p, v in leaves},
+        }
+
+
+class PassiveCaseFunction(AbstractCaseFunction):
+    """The passive-deceleration phase of one case at a fidelity level (section IV.C).
+
+    ``params``: the capture states of ``UNCERTAIN_PARAMETERS`` (x_m ... omega_z_deg_s; scalars);
+    other entries (wind, delay, noise) are ignored (see the module docstring). Outputs (scalars):
+    ``captured``, ``stopped``, ``success``, ``criteria_met``, per criterion its flag and margin,
+    ``z_max_m`` [m], ``a_max_g`` [g of 9.80 m/s^2], ``sigma_max_mpa`` [MPa], ``stop_time_s`` [s]
+    (NaN when not stopped), ``energy_budget_error`` [-], ``status_code`` (diffrax), ``num_steps``.
+
+    The ``rigid`` level builds its scene inside the traced function (vmapped over the captures;
+    differentiable in them). The ``ale`` and ``full`` levels mesh their cables with NumPy from the
+    concrete capture (:meth:`AleCables.build`), so they build each case on the host
+    (``host_build``) and vmap only the solve.
+    """
+
+    buffer: BufferDevice
+    layout: ArrestingLayout
+    vz_m_s: jax.Array = eqx.field(converter=jnp.asarray)
+    """Vertical velocity of O at capture [m/s], z up (section IV: -20)."""
+    criteria: LandingCriteria = eqx.field(static=True)
+    fidelity: str = eqx.field(static=True)
+    t_end_s: float = eqx.field(static=True)
+    solver: str = eqx.field(static=True)
+    rtol: float = eqx.field(static=True)
+    atol: float = eqx.field(static=True)
+    max_steps: int = eqx.field(static=True)
+    n_save: int = eqx.field(static=True, default=2001)
+    """Samples of the saved histories over [0, t_end_s]; the maxima are taken over them."""
+
+    def __check_init__(self):
+        check_choice("fidelity", self.fidelity, SWEEP_FIDELITIES)
+        check_positive("t_end_s", self.t_end_s)
+        check_positive("rtol", self.rtol)
+        check_positive("atol", self.atol)
+        check_positive("max_steps", self.max_steps)
+        if self.n_save < 2:
+            raise ValueError(f"n_save must be at least 2, got {self.n_save}")
+
+    @property
+    def host_build(self) -> bool:
+        return self.fidelity != "rigid"
+
+    def build(self, params):
+        """The passive scene of one case (a :class:`PassiveLandingScene`)."""
+        from .arresting.passive import passive_landing_scene
+
+        capture = CaptureState(
+            **{k: params[k] for k in UNCERTAIN_PARAMETERS[:10]}, vz_m_s=self.vz_m_s
+        )
+        return passive_landing_scene(
+            self.fidelity, capture, self.layout, self.buffer, t_end_s=self.t_end_s
+        )
+
+    def _simulate(self, scene):
+        from .simulate import simulate
+
+        return simulate(
+            scene,
+            self.t_end_s,
+            solver=self.solver,
+            rtol=self.rtol,
+            atol=self.atol,
+            max_steps=self.max_steps,
+            save_ts=jnp.linspace(0.0, self.t_end_s, self.n_save),
+        )
+
+    def __call__(self, params):
+        return self.solve(self.build(params))
+
+    def histories(self, params):
+        return self.solve_histories(self.build(params))
+
+    def solve(self, scene):
+        """Scalar outputs of one built case (see the class docstring)."""
+        from .arresting.passive import landing_outputs
+
+        r = self._simulate(scene)
+        o = landing_outputs(r.ts, r.probes, r.status, self.criteria)
+        finite = jnp.isfinite(r.ts)[:, None]
+        hook_force = jnp.where(finite, r.probes["hook_normal_force_N"], 0.0)
+        captured = jnp.all(jnp.max(hook_force, axis=0) > 0.0)
+        c = self.criteria
+        out = dict(
+            captured=captured,
+            stopped=o["stopped"],
+            success=captured & o["stopped"] & o["criteria_met"],
+            criteria_met=o["criteria_met"],
+            z_ok=o["z_ok"],
+            z_margin_m=c.z_max_m - o["z_max_m"],
+            a_ok=o["a_ok"],
+            a_margin_g=c.a_max_g - o["a_max_g"],
+            sigma_ok=o["sigma_ok"],
+            sigma_margin_mpa=c.sigma_max_mpa - o["sigma_max_mpa"],
+            z_max_m=o["z_max_m"],
+            a_max_g=o["a_max_g"],
+            sigma_max_mpa=o["sigma_max_mpa"],
+            stop_time_s=o["stop_time_s"],
+            energy_budget_error=o["energy_budget_error"],
+            status_code=r.status,
+            num_steps=r.num_steps,
+        )
+        return {k: jnp.asarray(v) for k, v in out.items()}
+
+    def solve_histories(self, scene):
+        """Figs 18-20: ``ts`` [s], ``drop_m`` [m], ``acceleration_g`` (|a| of the centre of mass
+        [g]), ``stress_max_mpa`` [MPa] on the saved grid (n_save,); NaN after a failed run ended."""
+        r = self._simulate(scene)
+        finite = jnp.isfinite(r.ts)
+        acc = jnp.linalg.norm(r.probes["acceleration_m_s2"], axis=1) / G_CRITERIA
+        mask = lambda v: jnp.where(finite, v, jnp.nan)  # noqa: E731
+        return dict(
+            ts=mask(r.ts),
+            drop_m=mask(r.probes["drop_m"]),
+            acceleration_g=mask(acc),
+            stress_max_mpa=mask(r.probes["stress_max_pa"] / 1e6),
+        )
+
+    def describe(self):
+        return dict(
+            type=type(self).__name__,
+            fidelity=self.fidelity,
+            t_end_s=self.t_end_s,
+            solver=self.solver,
+            rtol=self.rtol,
+            atol=self.atol,
+            max_steps=self.max_steps,
+            n_save=self.n_save,
+            vz_m_s=float(self.vz_m_s),
+            criteria=dict(z_max_m=self.criteria.z_max_m, a_max_g=self.criteria.a_max_g, sigma_max_mpa=self.criteria.sigma_max_mpa),
+            buffer={k: np.asarray(getattr(self.buffer, k)).tolist() for k in self.buffer.__dataclass_fields__},
+            layout={k: np.asarray(getattr(self.layout, k)).tolist() for k in self.layout.__dataclass_fields__},
+        )
+
+
+def passive_case_fn(
+    fidelity: str = "rigid",
+    buffer: BufferDevice | None = None,
+    layout: ArrestingLayout | None = None,
+    *,
+    t_end_s: float = 2.0,
+    solver: str | None = None,
+    rtol: float | None = None,
+    atol: float | None = None,
+    max_steps: int | None = None,
+    n_save: int | None = None,
+    vz_m_s: float = CAPTURE_VZ_M_S,
+    criteria: LandingCriteria = LandingCriteria(),
+) -> PassiveCaseFunction:
+    """The passive-phase case function with Table 1 defaults and the level's solver settings
+    (``LEVEL_DEFAULTS`` of :mod:`jaxcable.arresting.landing` where an argument is ``None``).
+
+    Defaults chosen by measurement (rigid level, scenario III, /tmp scripts of the sweep's author):
+
+    * ``t_end_s`` = 2 s (as ``jaxcable land``). The descent stops at 0.62-0.87 s, but the drop
+      keeps growing after the stop: the rocket swings toward the centre on weakly damped cables and
+      reaches its largest drop at ~1.3-1.5 s. z_max over [0, 1.2 s] was up to 1.3 % below z_max
+      over [0, 1.6 s]; z_max over [0, 2 s] is up to 1.8 % below z_max over [0, 4 s] (19 of 100
+      cases differ by more than 0.1 %, the success count is the same). The criteria are maxima over
+      ``[0, t_end_s]``; a case not stopped by then is reported with ``stopped=False``, not failed.
+    * ``n_save`` = one sample per ``SAVE_SPACING_S`` = 1 ms (2001 at 2 s): the maxima are taken
+      over the saved samples; against 0.25 ms sampling, 5 ms (401 samples, the scene's default)
+      misses a_max by up to 0.13 %, 2.5 ms by 0.03 %, 1 ms by 4e-5 (40 cases), at no measurable
+      extra run time.
+    """
+    from .arresting.landing import LEVEL_DEFAULTS
+
+    check_choice("fidelity", fidelity, SWEEP_FIDELITIES)
+    d_solver, d_rtol, d_atol, d_steps = LEVEL_DEFAULTS[fidelity]
+    return PassiveCaseFunction(
+        buffer=BufferDevice() if buffer is None else buffer,
+        layout=ArrestingLayout() if layout is None else layout,
+        vz_m_s=vz_m_s,
+        criteria=criteria,
+        fidelity=fidelity,
+        t_end_s=float(t_end_s),
+        solver=solver or d_solver,
+        rtol=float(rtol or d_rtol),
+        atol=float(atol or rtol or d_atol),
+        max_steps=int(max_steps or d_steps),
+        n_save=int(n_save or round(t_end_s / SAVE_SPACING_S) + 1),
+    )
+
+
+_CASE_FACTORIES: dict[str, Callable[..., AbstractCaseFunction]] = {"passive": passive_case_fn}
+
+
+def register_case_fn(phase: str, factory: Callable[..., AbstractCaseFunction]) -> None:
+    """Register the factory of a phase's case function, called as ``factory(fidelity, **kwargs)``
+    (e.g. the two-phase one for ``phase="full"``)."""
+    check_choice("phase", phase, PHASES)
+    _CASE_FACTORIES[phase] = factory
+
+
+def case_fn_for(phase: str, fidelity: str = "rigid", **kwargs) -> AbstractCaseFunction:
+    """The case function of a phase (``passive`` or ``full``) at a fidelity level."""
+    check_choice("phase", phase, PHASES)
+    if phase not in _CASE_FACTORIES:
+        raise ValueError(
+            f"phase {phase!r}: no case function is available yet (the two-phase simulation, active "
+            "tracking then passive deceleration, is not implemented); register one with "
+            "jaxcable.sweep.register_case_fn, or use phase 'passive'"
+        )
+    return _CASE_FACTORIES[phase](fidelity, **kwargs)
+
+
+# ------------------------------------------------------------------------------------------------
+# Batched, sharded evaluation
+# ------------------------------------------------------------------------------------------------
+
+
+def _mesh(devices=None):
+    devices = jax.local_devices() if devices is None else list(devices)
+    return jax.sharding.Mesh(np.asarray(devices), (_AXIS,))
+
+
+def _sharded_impl(case_fn, batch, mesh, method):
+    # shard_map (not a plain sharded vmap): each device runs its own vmapped while-loop, so a
+    # device stops when its own cases finish, with no cross-device reduction per step.
+    # check_vma=False: diffrax's while-loop carries mix device-varying values (the cases) with
+    # replicated ones (constants), which the varying-axes type check rejects; the body has no
+    # collectives, so there is nothing for the check to protect.
+    P = jax.sharding.PartitionSpec
+    fn_dynamic, fn_static = eqx.partition(case_fn, eqx.is_array)
+    batch_dynamic, batch_static = eqx.partition(batch, eqx.is_array)
+
+    def local(fn_dynamic, batch_dynamic):
+        fn = eqx.combine(fn_dynamic, fn_static)
+        return jax.vmap(getattr(fn, method))(eqx.combine(batch_dynamic, batch_static))
+
+    return jax.shard_map(local, mesh=mesh, in_specs=(P(), P(_AXIS)), out_specs=P(_AXIS), check_vma=False)(
+        fn_dynamic, batch_dynamic
+    )
+
+
+# One compiled function per (case function structure, mesh, method, chunk shape): module level so
+# that repeated sweeps (tests, extensions, resumes in one process) reuse the compiled code.
+_sharded = eqx.filter_jit(_sharded_impl)
+
+
+def _stack_cases(cases: list):
+    """Stack single-case PyTrees along a new leading axis; their non-array parts must agree."""
+    statics = [eqx.partition(c, eqx.is_array)[1] for c in cases]
+    if any(s != statics[0] for s in statics[1:]):
+        raise ValueError("the cases of a chunk were built with different static structures; cannot batch them")
+    return jax.tree_util.tree_map(lambda *xs: np.stack([np.asarray(x) for x in xs]) if eqx.is_array(xs[0]) else xs[0], *cases)
+
+
+def _evaluate(case_fn, params: dict, mesh, size: int, method="__call__") -> dict:
+    """Run ``case_fn`` on the cases of ``params`` (arrays (k,), k <= size) padded to ``size`` (a
+    multiple of the mesh size) by repeating the first case; returns numpy arrays (k,)."""
+    k = len(next(iter(params.values())))
+    pad = size - k
+    padded = {name: np.concatenate([v, np.repeat(v[:1], pad)]) if pad else v for name, v in params.items()}
+    if case_fn.host_build:
+        batch = _stack_cases([case_fn.build({n: v[j] for n, v in padded.items()}) for j in range(size)])
+        method = {"__call__": "solve", "histories": "solve_histories"}[method]
+    else:
+        batch = padded
+    sharding = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec(_AXIS))
+    batch = jax.tree_util.tree_map(lambda x: jax.device_put(x, sharding) if eqx.is_array(x) else x, batch)
+    out = _sharded(case_fn, batch, mesh, method)
+    return {name: np.asarray(v)[:k] for name, v in out.items()}
+
+
+def _round_up(a, b):
+    return -(-a // b) * b
+
+
+# ------------------------------------------------------------------------------------------------
+# CSV rows, sidecar, resume
+# ------------------------------------------------------------------------------------------------
+
+
+def _fmt(v) -> str:
+    if isinstance(v, (bool, np.bool_)):
+        return "True" if v else "False"
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    return repr(float(v))  # shortest repr that round-trips a float64 exactly
+
+
+def _parse(text: str):
+    if text in ("True", "False"):
+        return text == "True"
+    try:
+        return int(text)
+    except ValueError:
+        pass
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
+def _sidecar_path(out_csv) -> Path:
+    return Path(str(out_csv) + ".json")
+
+
+def _read_rows(path: Path, repair: bool) -> tuple[list[str] | None, list[list[str]]]:
+    """Header and complete rows of a sweep CSV. With ``repair``, a trailing partial line (a chunk
+    cut by a kill) is truncated off the file."""
+    if not path.exists():
+        return None, []
+    data = path.read_bytes()
+    end = data.rfind(b"\n") + 1
+    if end < len(data) and repair:
+        with open(path, "r+b") as f:
+            f.truncate(end)
+            f.flush()
+            os.fsync(f.fileno())
+    lines = data[:end].decode().splitlines()
+    if not lines:
+        return None, []
+    return lines[0].split(","), [line.split(",") for line in lines[1:] if line]
+
+
+def _append_lines(path: Path, lines: list[str]):
+    """Append whole lines and make them durable before the next chunk starts: a kill can cut
+    only the last, unfinished write, which the next start truncates."""
+    with open(path, "a", encoding="utf-8") as f:
+        f.write("".join(line + "\n" for line in lines))
+        f.flush()
+        os.fsync(f.fileno())
+
+
+def read_sweep_csv(path) -> dict:
+    """A sweep CSV as columns ``{name: np.ndarray}`` sorted by case (complete lines only; a case
+    written twice, which a sweep never does, keeps its first row)."""
+    header, rows = _read_rows(Path(path), repair=False)
+    if header is None:
+        raise ValueError(f"{path}: not a sweep CSV (empty)")
+    seen, kept = set(), []
+    for row in rows:
+        if len(row) != len(header):
+            raise ValueError(f"{path}: a row has {len(row)} fields, the header {len(header)}")
+        case = int(row[0])
+        if case not in seen:
+            seen.add(case)
+            kept.append([_parse(x) for x in row])
+    kept.sort(key=lambda r: r[0])
+    cols = {}
+    for j, name in enumerate(header):
+        vals = [r[j] for r in kept]
+        cols[name] = np.asarray(vals, dtype=object if name == "solver_status" else None)
+        if name == "solver_status":
+            cols[name] = cols[name].astype(str)
+    if not kept:
+        cols = {name: np.zeros(0) for name in header}
+    return cols
+
+
+def merge_sweep_csvs(paths: Sequence, out) -> dict:
+    """Merge the CSVs of one sweep run on several hosts (same columns) into ``out``, one row per case,
+    sorted; returns the merged columns."""
+    header, merged = None, {}
+    for p in paths:
+        h, rows = _read_rows(Path(p), repair=False)
+        if h is None:
+            continue
+        if header is not None and h != header:
+            raise ValueError(f"{p}: columns differ from {paths[0]}")
+        header = h
+        for row in rows:
+            merged.setdefault(int(row[0]), row)
+    if header is None:
+        raise ValueError("no rows to merge")
+    tmp = Path(str(out) + ".tmp")
+    tmp.write_text(",".join(header) + "\n" + "".join(",".join(merged[i]) + "\n" for i in sorted(merged)))
+    os.replace(tmp, out)
+    return read_sweep_csv(out)
+
+
+def _status_text(code: int) -> str:
+    from .simulate import status_message
+
+    return status_message(code).replace(",", ";").replace("\n", " ")
+
+
+def _failed(outputs: dict, i: int) -> bool:
+    if int(outputs["status_code"][i]) not in _OK_STATUS:
+        return True
+    for name, v in outputs.items():
+        x = v[i]
+        if np.issubdtype(np.asarray(x).dtype, np.floating) and not np.isfinite(x):
+            flag = ALLOWED_NONFINITE.get(name)
+            if flag is None or bool(outputs[flag][i]):
+                return True
+    return False
+
+
+def process_indices(n: int, process_index: int = 0, process_count: int = 1) -> np.ndarray:
+    """Case indices of one process of a multi-host sweep: ``process_index``, ``+ process_count``, ...
+    (strided, so growing ``n`` keeps every earlier case on the same process)."""
+    if not 0 <= process_index < process_count:
+        raise ValueError(f"process_index must be in [0, {process_count}), got {process_index}")
+    return np.arange(process_index, n, process_count)
+
+
+def run_sweep(
+    case_fn: AbstractCaseFunction,
+    samples: dict,
+    out_csv,
+    *,
+    indices=None,
+    batch_size: int = 32,
+    identity: dict | None = None,
+    devices=None,
+    progress: bool = True,
+    on_chunk: Callable[[np.ndarray], None] | None = None,
+) -> dict:
+    """Run ``case_fn`` on the cases ``indices`` (default all) of ``samples`` ({name: (n,)}), append
+    one CSV row per case to ``out_csv`` as each chunk finishes, and return all the file's rows as
+    columns (:func:`read_sweep_csv`).
+
+    Resumes: cases already in ``out_csv`` are skipped; the sidecar ``out_csv + ".json"`` stores
+    ``identity`` (plus the case function's description and the input names) and a restart with a
+    different one raises ``ValueError``. ``batch_size`` (cases per compiled call, padded up to a
+    multiple of the device count), ``devices`` and ``progress`` change results only through
+    roundoff and may differ on resume.
+    ``on_chunk(case_indices)`` is called after each chunk is durable (logging, tests).
+    """
+    from . import __version__, enable_x64
+
+    enable_x64()
+    check_positive("batch_size", batch_size)
+    names = list(samples)
+    arrays = {k: np.asarray(samples[k], dtype=float) for k in names}
+    n = len(arrays[names[0]])
+    indices = np.arange(n) if indices is None else np.asarray(indices, dtype=int)
+    if indices.size and (indices.min() < 0 or indices.max() >= n):
+        raise ValueError(f"indices must be in [0, {n}), got {indices.min()}..{indices.max()}")
+    mesh = _mesh(devices)
+    n_dev = mesh.devices.size
+    out_csv = Path(out_csv)
+    side = _sidecar_path(out_csv)
+    meta = dict(identity=identity or {}, case_fn=case_fn.describe(), inputs=names)
+    header, done = _check_resume(out_csv, side, meta, arrays, names)
+    if header is None:
+        # a new sweep (or one killed before its first chunk): sidecar first, then an empty CSV;
+        # the header goes in with the first chunk, once the case function's outputs are known
+        out_csv.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(str(side) + ".tmp")
+        tmp.write_text(json.dumps(dict(meta, jaxcable=__version__), indent=1))
+        os.replace(tmp, side)
+        out_csv.write_text("")
+    todo = np.array([i for i in indices if int(i) not in done], dtype=int)
+    # one chunk shape per sweep (one compilation): the last chunk is padded up to it
+    size = _round_up(min(batch_size, max(len(todo), 1)), n_dev)
+    bar = _progress_bar(len(indices), len(indices) - len(todo), progress)
+    for start in range(0, len(todo), size):
+        idx = todo[start : start + size]
+        outputs = _evaluate(case_fn, {k: arrays[k][idx] for k in names}, mesh, size)
+        if "status_code" not in outputs:
+            raise ValueError("a case function must return 'status_code' (the solver's result code)")
+        out_keys = _ordered(outputs)
+        columns = ["case", *names, *out_keys, "solver_status", "failed"]
+        lines = []
+        if header is None:
+            header = columns
+            lines.append(",".join(columns))
+        elif header != columns:
+            raise ValueError(f"{out_csv}: its columns differ from this case function's outputs; refusing to resume")
+        for j, case in enumerate(idx):
+            failed = _failed(outputs, j)
+            row = [_fmt(int(case))] + [_fmt(arrays[k][case]) for k in names]
+            row += [_fmt(outputs[k][j]) for k in out_keys]
+            row += [_status_text(int(outputs["status_code"][j])), _fmt(failed)]
+            lines.append(",".join(row))
+        _append_lines(out_csv, lines)
+        if bar is not None:
+            bar.update(len(idx))
+        if on_chunk is not None:
+            on_chunk(idx)
+    if bar is not None:
+        bar.close()
+    return read_sweep_csv(out_csv)
+
+
+def _progress_bar(total, initial, show):
+    if not show:
+        return None
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, initial=initial, unit="case", desc="sweep", file=sys.stderr)
+
+
+def _check_resume(out_csv: Path, side: Path, meta: dict, arrays: dict, names: list):
+    """The CSV's header (``None`` if it has none yet) and the case indices already written; raises if
+    the file belongs to a different sweep."""
+    if not out_csv.exists():
+        return None, set()
+    if not side.exists():
+        raise ValueError(
+            f"{out_csv} exists without its sidecar {side.name}: not a sweep file (or its sidecar was "
+            "deleted); move it away or choose another --out"
+        )
+    stored = json.loads(side.read_text())
+    diffs = [
+        f"{key}: stored {stored.get(key)!r}, now {meta[key]!r}"
+        for key in meta
+        if _jsonable(stored.get(key)) != _jsonable(meta[key])
+    ]
+    if diffs:
+        raise ValueError(
+            f"{out_csv} holds a different sweep; refusing to resume (use another --out, or delete "
+            "the file and its sidecar to start again). Differences: " + "; ".join(diffs)
+        )
+    header, rows = _read_rows(out_csv, repair=True)
+    if header is None:
+        return None, set()
+    if header[: 1 + len(names)] != ["case", *names]:
+        raise ValueError(f"{out_csv}: its input columns differ from this sweep's; refusing to resume")
+    done = set()
+    for row in rows:
+        if len(row) != len(header):
+            raise ValueError(f"{out_csv}: a complete line has {len(row)} fields, the header {len(header)}")
+        case = int(row[0])
+        if case >= len(arrays[names[0]]):
+            continue
+        # the inputs written must be this sweep's inputs (guards against a changed sampler)
+        written = np.array([float(x) for x in row[1 : 1 + len(names)]])
+        expected = np.array([arrays[k][case] for k in names])
+        if not np.array_equal(written, expected):
+            raise ValueError(f"{out_csv}: the inputs of case {case} differ from this sweep's samples; refusing to resume")
+        done.add(case)
+    return header, done
+
+
+_PREFERRED_ORDER = (
+    "success", "captured", "stopped", "criteria_met",
+    "z_ok", "a_ok", "sigma_ok", "z_max_m", "a_max_g", "sigma_max_mpa",
+    "z_margin_m", "a_margin_g", "sigma_margin_mpa", "stop_time_s",
+)  # fmt: skip
+
+
+def _ordered(outputs: dict) -> list:
+    """Output columns: the landing outputs in a reading order, then the rest alphabetically, with
+    the solver's code and step count last."""
+    last = ("status_code", "num_steps")
+    first = [k for k in _PREFERRED_ORDER if k in outputs]
+    rest = sorted(k for k in outputs if k not in first and k not in last)
+    return first + rest + [k for k in last if k in outputs]
+
+
+def _jsonable(x):
+    return json.loads(json.dumps(x))
+
+
+# ------------------------------------------------------------------------------------------------
+# The quasi-Monte Carlo sweep of section IV
+# ------------------------------------------------------------------------------------------------
+
+
+def run_qmc_sweep(
+    scenario: str = "I",
+    n: int = 100,
+    *,
+    phase: str = "passive",
+    fidelity: str = "rigid",
+    out="sweep.csv",
+    seed: int = 0,
+    batch_size: int = 32,
+    process_index: int = 0,
+    process_count: int = 1,
+    devices=None,
+    progress: bool = True,
+    on_chunk=None,
+    **case_kwargs,
+) -> dict:
+    """Section IV's sweep: ``n`` Halton cases of ``scenario`` for ``phase`` at ``fidelity``, this
+    process's share of them (:func:`process_indices`) written to ``out``. Returns the columns.
+
+    The sidecar identity holds scenario, phase, seed, process slice and the case function; ``n`` may
+    grow on resume (the Halton prefix property keeps the earlier cases), not shrink."""
+    check_choice("scenario", scenario, SCENARIOS)
+    check_choice("phase", phase, PHASES)
+    case_fn = case_fn_for(phase, fidelity, **case_kwargs)
+    samples = halton_samples(n, scenario, phase, seed)
+    identity = dict(
+        scenario=scenario, phase=phase, seed=int(seed), process_index=int(process_index), process_count=int(process_count)
+    )
+    side = _sidecar_path(out)
+    if Path(out).exists() and side.exists():
+        stored_n = json.loads(side.read_text()).get("n")
+        if stored_n is not None and n < stored_n:
+            raise ValueError(f"{out} holds a sweep of n = {stored_n}; resuming with n = {n} < {stored_n} is refused")
+    result = run_sweep(
+        case_fn,
+        samples,
+        out,
+        indices=process_indices(n, process_index, process_count),
+        batch_size=batch_size,
+        identity=identity,
+        devices=devices,
+        progress=progress,
+        on_chunk=on_chunk,
+    )
+    meta = json.loads(side.read_text())
+    meta["n"] = max(int(n), int(meta.get("n") or 0))
+    tmp = Path(str(side) + ".tmp")
+    tmp.write_text(json.dumps(meta, indent=1))
+    os.replace(tmp, side)
+    return result
+
+
+def run_histories(case_fn: AbstractCaseFunction, samples: dict, indices, *, devices=None) -> dict:
+    """Time histories (``case_fn.histories``) of the cases ``indices`` in one batch: {name: (k, n_save)}."""
+    from . import enable_x64
+
+    enable_x64()
+    indices = np.asarray(indices, dtype=int)
+    mesh = _mesh(devices)
+    params = {k: np.asarray(v, dtype=float)[indices] for k, v in samples.items()}
+    size = _round_up(max(len(indices), 1), mesh.devices.size)
+    return _evaluate(case_fn, params, mesh, size, method="histories")
+
+
+# ------------------------------------------------------------------------------------------------
+# Summaries and plots (Tables 6, 7, 9; Figs 18-21)
+# ------------------------------------------------------------------------------------------------
+
+
+def summarize_sweep(table: dict, criteria: LandingCriteria = LandingCriteria()) -> dict:
+    """Statistics of a sweep's columns: ``n_cases``, ``n_failed`` (numerically), ``n_captured``,
+    ``n_stopped``, ``n_success``, ``success_rate`` (0..1, successes over all cases), and per
+    criterion ``{min, max, mean, limit, n_ok, unit}`` over the cases that did not fail."""
+    n = len(table["case"])
+    failed = np.asarray(table["failed"], dtype=bool)
+    good = ~failed
+
+    def count(flag):
+        return int(np.sum(np.asarray(table[flag], dtype=bool) & good)) if flag in table else None
+
+    summary = dict(
+        n_cases=n,
+        n_failed=int(np.sum(failed)),
+        n_captured=count("captured"),
+        n_stopped=count("stopped"),
+        n_success=count("success"),
+    )
+    summary["success_rate"] = (summary["n_success"] / n) if (n and summary["n_success"] is not None) else None
+    crit = {}
+    for name, flag, _, limit_field, unit in CRITERIA:
+        if name not in table:
+            continue
+        v = np.asarray(table[name], dtype=float)[good]
+        stats = dict(min=None, max=None, mean=None)
+        if v.size:
+            stats = dict(min=float(np.min(v)), max=float(np.max(v)), mean=float(np.mean(v)))
+        crit[name] = dict(stats, limit=float(getattr(criteria, limit_field)), n_ok=count(flag), unit=unit)
+    summary["criteria"] = crit
+    if failed.any():
+        statuses, counts = np.unique(np.asarray(table["solver_status"])[failed], return_counts=True)
+        summary["failed_status"] = {str(s): int(c) for s, c in zip(statuses, counts)}
+    return summary
+
+
+def summary_markdown(summary: dict, title: str = "Sweep") -> str:
+    """The summary as markdown: criteria like Tables 6/9, counts like Table 7."""
+
+    def f(x, fmt="{:.3f}"):
+        return "-" if x is None else fmt.format(x)
+
+    lines = [f"### {title}", "", "| criterion | min | max | mean | limit | cases within limit |", "|---|---:|---:|---:|---:|---:|"]
+    good = summary["n_cases"] - summary["n_failed"]
+    for name, c in summary["criteria"].items():
+        lines.append(
+            f"| {name} [{c['unit']}] | {f(c['min'])} | {f(c['max'])} | {f(c['mean'])} | < {c['limit']:g} | {c['n_ok']}/{good} |"
+        )
+    rate = summary["success_rate"]
+    lines += [
+        "",
+        "| simulation cases | failed numerically | captured | stopped | successful | success rate |",
+        "|---:|---:|---:|---:|---:|---:|",
+        f"| {summary['n_cases']} | {summary['n_failed']} | {summary['n_captured']} | {summary['n_stopped']} | "
+        f"{summary['n_success']} | {f(None if rate is None else 100 * rate, '{:.1f}')} % |",
+    ]
+    if summary.get("failed_status"):
+        lines += ["", "Failed cases by solver status: " + ", ".join(f"{k}: {v}" for k, v in summary["failed_status"].items())]
+    return "\n".join(lines) + "\n"
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def plot_landing_plane(table: dict, path, title: str = "", criteria: LandingCriteria = LandingCriteria()):
+    """Like Fig 21: (a) capture positions with lateral-velocity (red) and inclination (green) arrows;
+    (b-d) z_max, a_max, sigma_max over the landing plane (x, y coloured by the criterion; failed
+    cases as black crosses)."""
+    plt = _plt()
+    x, y = np.asarray(table["x_m"], float), np.asarray(table["y_m"], float)
+    failed = np.asarray(table["failed"], bool)
+    fig, axes = plt.subplots(2, 2, figsize=(11, 9.5))
+    ax = axes[0, 0]
+    ax.scatter(x, y, s=10, c="k")
+    ax.quiver(x, y, table["vx_m_s"], table["vy_m_s"], color="r", angles="xy", scale_units="xy", scale=0.5, width=0.003, label="v_xy (1 m/s = 2 m)")
+    ax.quiver(x, y, table["theta_y_deg"], -np.asarray(table["theta_x_deg"], float), color="g", angles="xy", scale_units="xy", scale=4.0, width=0.003, label="tilt direction (4 deg = 1 m)")
+    ax.set_title("a) capture states", fontsize=10)
+    ax.legend(fontsize=7, loc="upper right")
+    for ax, letter, (name, _, _, limit_field, unit) in zip(axes.flat[1:], "bcd", CRITERIA):
+        v = np.asarray(table[name], float)
+        sc = ax.scatter(x[~failed], y[~failed], c=v[~failed], s=30, cmap="viridis")
+        if failed.any():
+            ax.scatter(x[failed], y[failed], marker="x", c="k", s=30, label="failed")
+            ax.legend(fontsize=7)
+        fig.colorbar(sc, ax=ax, label=f"{name} [{unit}] (limit {getattr(criteria, limit_field):g})")
+        ax.set_title(f"{letter}) {name}", fontsize=10)
+    for ax in axes.flat:
+        ax.set_xlabel("x [m]")
+        ax.set_ylabel("y [m]")
+        ax.set_aspect("equal", adjustable="datalim")
+    fig.suptitle(title or "criteria over the landing plane", fontsize=11)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return str(path)
+
+
+def plot_histories(histories: dict, path, title: str = "", criteria: LandingCriteria = LandingCriteria()):
+    """Like Figs 18-20: drop, acceleration and max cable stress against time, one line per case."""
+    plt = _plt()
+    ts = np.asarray(histories["ts"])
+    fig, axes = plt.subplots(3, 1, figsize=(7, 9), sharex=True)
+    panels = (
+        ("drop_m", "buffering distance [m]", criteria.z_max_m),
+        ("acceleration_g", "acceleration [g]", criteria.a_max_g),
+        ("stress_max_mpa", "max cable stress [MPa]", criteria.sigma_max_mpa),
+    )
+    for ax, (key, label, limit) in zip(axes, panels):
+        for t, v in zip(ts, np.asarray(histories[key])):
+            ax.plot(t, v, lw=0.6, alpha=0.7)
+        ax.axhline(limit, color="r", ls=":", lw=1)
+        ax.set_ylabel(label)
+    axes[-1].set_xlabel("time since capture [s]")
+    fig.suptitle(title or f"{ts.shape[0]} cases", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return str(path)
+
+
+# ------------------------------------------------------------------------------------------------
+# Command line: jaxcable sweep
+# ------------------------------------------------------------------------------------------------
+
+
+def _build_parser() -> argparse.ArgumentParser:
+    from .simulate import SOLVERS
+
+    def positive_int(name):
+        def parse(text):
+            value = int(text)
+            if value <= 0:
+                raise argparse.ArgumentTypeError(f"{name} must be a positive integer, got {text}")
+            return value
+
+        return parse
+
+    def positive(name):
+        def parse(text):
+            value = float(text)
+            if not value > 0:
+                raise argparse.ArgumentTypeError(f"{name} must be positive, got {text}")
+            return value
+
+        return parse
+
+    p = argparse.ArgumentParser(
+        prog="jaxcable sweep",
+        description="quasi-Monte Carlo robustness sweep of the arresting-cable landing (paper section IV)",
+    )
+    p.add_argument("--scenario", choices=SCENARIOS, default="I", help="wind scenario of Table 4 (default I)")
+    p.add_argument("--n", type=positive_int("--n"), default=100, help="number of Halton cases (default 100, as the paper)")
+    p.add_argument("--phase", choices=PHASES, default="passive", help="passive: from capture (Table 8); full: two-phase (not available yet)")
+    p.add_argument(
+        "--fidelity",
+        choices=SWEEP_FIDELITIES,
+        default="rigid",
+        help="model level (default rigid, for cost: ~0.1 s per 2 s case once compiled, ale ~1 min)",
+    )
+    p.add_argument("--out", default="sweep.csv", help="CSV of one row per case; resumed if it exists (default sweep.csv)")
+    p.add_argument("--seed", type=int, default=0, help="Halton scrambling seed (default 0)")
+    p.add_argument("--batch-size", type=positive_int("--batch-size"), default=32, help="cases per compiled call (default 32)")
+    p.add_argument("--t-end", type=positive("--t-end"), default=2.0, help="time simulated after capture [s] (default 2)")
+    p.add_argument("--solver", choices=sorted(SOLVERS), default=None, help="diffrax solver (default per level)")
+    p.add_argument("--rtol", type=positive("--rtol"), default=None, help="relative = absolute tolerance (default per level)")
+    p.add_argument("--max-steps", type=positive_int("--max-steps"), default=None, help="solver step budget per case (default per level)")
+    p.add_argument("--plot", metavar="PREFIX", help="write PREFIX_plane.png (Fig 21) and PREFIX_histories.png (Figs 18-20)")
+    p.add_argument("--plot-cases", type=positive_int("--plot-cases"), default=32, help="cases in the histories plot (default 32)")
+    p.add_argument("--process-index", type=int, default=None, help="this host's index in a multi-host sweep (default: jax.process_index())")
+    p.add_argument("--process-count", type=int, default=None, help="hosts in a multi-host sweep (default: jax.process_count())")
+    p.add_argument(
+        "--distributed",
+        action="store_true",
+        help="call jax.distributed.initialize() first (multi-host; arguments auto-detected on Slurm, Open MPI, TPU)",
+    )
+    p.add_argument(
+        "--coordinator",
+        metavar="HOST:PORT",
+        help="with --distributed off a managed cluster: the coordinator address (with --process-index/--process-count)",
+    )
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--json", action="store_true", help="print one JSON object (the summary)")
+    return p
+
+
+def sweep_main(argv: list[str] | None = None) -> int:
+    """``jaxcable sweep``: run (or resume) a sweep, print its summary. Exit status 0 when every case
+    ran (whatever the success rate), 1 when some failed numerically, 2 on bad arguments."""
+    from . import enable_x64
+
+    args = _build_parser().parse_args(argv)
+    enable_x64()
+    if args.distributed:
+        try:
+            if args.coordinator:
+                jax.distributed.initialize(args.coordinator, num_processes=args.process_count, process_id=args.process_index)
+            else:
+                jax.distributed.initialize()
+        except RuntimeError as err:
+            # jax.distributed must start before JAX creates its backend; an import that builds an
+            # array at import time (a default argument, a module constant) already did.
+            print(
+                f"jaxcable sweep: error: jax.distributed.initialize() failed: {err}\n"
+                "Run each host with --process-index I --process-count N instead (the same slices, "
+                "without jax.distributed).",
+                file=sys.stderr,
+            )
+            return 2
+    p_index = jax.process_index() if args.process_index is None else args.process_index
+    p_count = jax.process_count() if args.process_count is None else args.process_count
+    if p_count > 1:
+        # one file per process (hosts may share a file system): results.p0of4.csv, ...
+        path = Path(args.out)
+        args.out = str(path.with_name(f"{path.stem}.p{p_index}of{p_count}{path.suffix}"))
+    try:
+        table = run_qmc_sweep(
+            args.scenario,
+            args.n,
+            phase=args.phase,
+            fidelity=args.fidelity,
+            out=args.out,
+            seed=args.seed,
+            batch_size=args.batch_size,
+            process_index=p_index,
+            process_count=p_count,
+            progress=not (args.no_progress or args.json),
+            t_end_s=args.t_end,
+            solver=args.solver,
+            rtol=args.rtol,
+            max_steps=args.max_steps,
+        )
+    except ValueError as err:
+        print(f"jaxcable sweep: error: {err}", file=sys.stderr)
+        return 2
+    summary = summarize_sweep(table)
+    summary.update(
+        scenario=args.scenario,
+        phase=args.phase,
+        fidelity=args.fidelity,
+        seed=args.seed,
+        out=args.out,
+        process_index=p_index,
+        process_count=p_count,
+    )
+    summary["wind_applied"] = False
+    if args.plot:
+        title = f"scenario {args.scenario}, {args.phase} phase, fidelity {args.fidelity}, {summary['n_cases']} cases"
+        summary["plots"] = [plot_landing_plane(table, f"{args.plot}_plane.png", title)]
+        case_fn = case_fn_for(args.phase, args.fidelity, t_end_s=args.t_end, solver=args.solver, rtol=args.rtol, max_steps=args.max_steps)
+        samples = halton_samples(args.n, args.scenario, args.phase, args.seed)
+        k = min(args.plot_cases, len(table["case"]))
+        hist = run_histories(case_fn, samples, np.asarray(table["case"][:k], int))
+        summary["plots"].append(plot_histories(hist, f"{args.plot}_histories.png", f"{title}: histories of {k} cases"))
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        print(summary_markdown(summary, f"scenario {args.scenario}, {args.phase} phase, fidelity {args.fidelity}"))
+        print("wind sampled and recorded, not applied (the passive scene has no wind component yet)")
+        print(f"rows in {args.out}")
+        for path in summary.get("plots", []):
+            print(f"plot written to {path}")
+    return 1 if summary["n_failed"] else 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(sweep_main())
