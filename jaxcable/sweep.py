@@ -127,6 +127,11 @@ class AbstractCaseFunction(eqx.Module):
     def host_build(self) -> bool:
         return False
 
+    @property
+    def per_device_loops(self) -> bool:
+        """Run each device's share under ``shard_map`` (its own solver loop) when several devices."""
+        return True
+
     def __call__(self, params: dict) -> dict:
         raise NotImplementedError
 
@@ -338,6 +343,8 @@ def register_case_fn(phase: str, factory: Callable[..., AbstractCaseFunction]) -
 def case_fn_for(phase: str, fidelity: str = "rigid", **kwargs) -> AbstractCaseFunction:
     """The case function of a phase (``passive`` or ``full``) at a fidelity level."""
     check_choice("phase", phase, PHASES)
+    if phase == "full" and phase not in _CASE_FACTORIES:
+        from .arresting import two_phase  # noqa: F401  (registers the two-phase case function)
     if phase not in _CASE_FACTORIES:
         raise ValueError(
             f"phase {phase!r}: no case function is available yet (the two-phase simulation, active "
@@ -364,6 +371,11 @@ def _sharded_impl(case_fn, batch, mesh, method):
     # replicated ones (constants), which the varying-axes type check rejects; the body has no
     # collectives, so there is nothing for the check to protect.
     P = jax.sharding.PartitionSpec
+    if mesh.devices.size == 1 or not case_fn.per_device_loops:
+        # one device, or a case function whose solve does not trace under shard_map (diffrax's
+        # event root find closure-converts its function, which shard_map's tracing rejects): a plain
+        # vmap; with several devices the batch's input sharding lets XLA partition it (GSPMD).
+        return jax.vmap(getattr(case_fn, method))(batch)
     fn_dynamic, fn_static = eqx.partition(case_fn, eqx.is_array)
     batch_dynamic, batch_static = eqx.partition(batch, eqx.is_array)
 
@@ -718,6 +730,8 @@ def run_qmc_sweep(
     grow on resume (the Halton prefix property keeps the earlier cases), not shrink."""
     check_choice("scenario", scenario, SCENARIOS)
     check_choice("phase", phase, PHASES)
+    if phase == "full":
+        case_kwargs = dict(case_kwargs, scenario=scenario, seed=int(seed))
     case_fn = case_fn_for(phase, fidelity, **case_kwargs)
     samples = halton_samples(n, scenario, phase, seed)
     identity = dict(
@@ -1013,15 +1027,16 @@ def sweep_main(argv: list[str] | None = None) -> int:
         process_index=p_index,
         process_count=p_count,
     )
-    summary["wind_applied"] = False
+    summary["wind_applied"] = args.phase == "full"  # the passive scene has no wind component
     if args.plot:
         title = f"scenario {args.scenario}, {args.phase} phase, fidelity {args.fidelity}, {summary['n_cases']} cases"
         summary["plots"] = [plot_landing_plane(table, f"{args.plot}_plane.png", title)]
-        case_fn = case_fn_for(args.phase, args.fidelity, t_end_s=args.t_end, solver=args.solver, rtol=args.rtol, max_steps=args.max_steps)
-        samples = halton_samples(args.n, args.scenario, args.phase, args.seed)
-        k = min(args.plot_cases, len(table["case"]))
-        hist = run_histories(case_fn, samples, np.asarray(table["case"][:k], int))
-        summary["plots"].append(plot_histories(hist, f"{args.plot}_histories.png", f"{title}: histories of {k} cases"))
+        if args.phase == "passive":  # time histories: passive phase only
+            case_fn = case_fn_for(args.phase, args.fidelity, t_end_s=args.t_end, solver=args.solver, rtol=args.rtol, max_steps=args.max_steps)
+            samples = halton_samples(args.n, args.scenario, args.phase, args.seed)
+            k = min(args.plot_cases, len(table["case"]))
+            hist = run_histories(case_fn, samples, np.asarray(table["case"][:k], int))
+            summary["plots"].append(plot_histories(hist, f"{args.plot}_histories.png", f"{title}: histories of {k} cases"))
     if args.json:
         print(json.dumps(summary))
     else:

@@ -232,13 +232,14 @@ class NoiseTrack(eqx.Module):
         return (1.0 - frac) * self.values_m[i] + frac * self.values_m[i + 1]
 
 
-def measurement_noise_track(key, controller: "TrackingController", t_end_s: float) -> NoiseTrack:
+def measurement_noise_track(key, controller: "TrackingController", t_end_s: float, sample_period_s=None) -> NoiseTrack:
     """Filtered noise covering [0, t_end_s] with the controller's Delta t and sigma_r.
 
     Sizes need concrete ``t_end_s`` and ``controller.sample_period_s``; ``noise_rms_m`` may be
-    traced (vmap over it). Draws ``n + 3`` raw samples for ``n`` filtered ones (eq 2 looks back 3)."""
+    traced (vmap over it). Draws ``n + 3`` raw samples for ``n`` filtered ones (eq 2 looks back 3).
+    ``sample_period_s`` (a Python float) overrides the controller's, for callers that trace it."""
     check_positive("t_end_s", t_end_s)
-    dt = controller.sample_period_s
+    dt = controller.sample_period_s if sample_period_s is None else sample_period_s
     if isinstance(dt, jax.core.Tracer):
         raise ValueError("sample_period_s must be concrete to size the noise track")
     n = int(math.ceil(float(t_end_s) / float(dt))) + 2

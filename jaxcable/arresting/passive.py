@@ -287,7 +287,7 @@ def passive_landing_scene(
     # Put O so that the mean throat height is on the top plane (cables straight at capture in the
     # design case): shift the capture position down by the throat's height above O.
     throat0 = jnp.einsum("j,kjd->kd", w, pos0)
-    dz = jnp.mean(throat0[:, 2]) - capture.position[2]
+    dz = jnp.mean(throat0[:, 2])  # height of the throats above the plane (z = 0)
     capture = eqx.tree_at(lambda c: c.z_m, capture, capture.z_m - dz)
     state0 = rocket.initial_state(capture.position, capture.velocity, capture.rotation_vector, capture.omega)
     pos0, vel0 = rocket.hook_points_world(state0)
