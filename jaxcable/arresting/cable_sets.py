@@ -278,15 +278,17 @@ class AleCables(eqx.Module):
         zero = jax.tree_util.tree_map(jnp.zeros_like, self.q0)
         return CableState(q=self.q0, qdot=zero, dissipated=jnp.zeros(4))
 
-    def _one_cable(self, sub: CableSubsystem, q, qdot, hooks: HookPoints):
+    def _one_cable(self, sub: CableSubsystem, kin, hooks: HookPoints):
+        """Contact of every hook capsule with every element of this cable's arresting span.
+
+        ``kin`` is the cable's :meth:`CableSubsystem.kinematics` (shared with its accelerations).
+        Returns ``(element_forces (n_el, 2, 3) on the cable material, f_hook (4, 3, 3), normal (4,),
+        power)``."""
         from .contact import capsule_contact
 
-        (r, s), (v, sd) = jax.jvp(sub.route.nodes, (q,), (qdot,))
         lo, hi = self.span_slice
-        r1, r2 = r[lo:hi], r[lo + 1 : hi + 1]
-        tangent = (r2 - r1) / (s[lo + 1 : hi + 1] - s[lo:hi])[:, None]
-        a1 = v[lo:hi] - tangent * sd[lo:hi, None]  # material velocities at element ends
-        a2 = v[lo + 1 : hi + 1] - tangent * sd[lo + 1 : hi + 1, None]
+        r1, r2 = kin.r[lo:hi], kin.r[lo + 1 : hi + 1]
+        a1, a2 = kin.a1[lo:hi], kin.a2[lo:hi]  # material velocities at element ends
         # hook capsules: arm (hinge -> tip), barb (tip -> barb end): (4 hooks, 2 capsules, 2 ends, 3)
         P, V = hooks.positions, hooks.velocities
         caps_p = jnp.stack([P[:, 0:2], P[:, 1:3]], axis=1)
@@ -296,31 +298,31 @@ class AleCables(eqx.Module):
             res = capsule_contact(
                 self.contact, cp[0], cp[1], self.hook_radius_m, cv[0], cv[1], e1, e2, self.cable_radius_m, va, vb
             )
-            return res
+            return res.force_on_cable_nodes, res.force_on_hook_points, res.normal_force
 
         over_elements = jax.vmap(pair, in_axes=(None, None, 0, 0, 0, 0))
         over_caps = jax.vmap(over_elements, in_axes=(0, 0, None, None, None, None))
         over_hooks = jax.vmap(over_caps, in_axes=(0, 0, None, None, None, None))
-        res = over_hooks(caps_p, caps_v, r1, r2, a1, a2)  # leaves: (4, 2, n_el, ...)
-        f_cable = jnp.sum(res.force_on_cable_nodes, axis=(0, 1))  # (n_el, 2, 3)
-        n_el_total = r.shape[0] - 1
+        on_cable, on_hook, normal = over_hooks(caps_p, caps_v, r1, r2, a1, a2)  # (4, 2, n_span, ...)
+        f_cable = jnp.sum(on_cable, axis=(0, 1))  # (n_span, 2, 3)
+        n_el_total = kin.length.shape[0]
         element_forces = jnp.zeros((n_el_total, 2, 3)).at[lo:hi].set(f_cable)
-        gen = sub.material_point_forces(q, element_forces)
-        f_hook_caps = jnp.sum(res.force_on_hook_points, axis=2)  # (4 hooks, 2 caps, 2 ends, 3)
+        f_hook_caps = jnp.sum(on_hook, axis=2)  # (4 hooks, 2 caps, 2 ends, 3)
         f_hook = jnp.zeros((4, 3, 3))
         f_hook = f_hook.at[:, 0:2].add(f_hook_caps[:, 0]).at[:, 1:3].add(f_hook_caps[:, 1])
-        normal = jnp.sum(res.normal_force, axis=(1, 2))  # (4,) per hook
+        normal = jnp.sum(normal, axis=(1, 2))  # (4,) per hook
         # contact power on both sides (for the energy budget): sum F.v at the application points
-        power = jnp.sum(element_forces[lo:hi, 0] * a1) + jnp.sum(element_forces[lo:hi, 1] * a2)
+        power = jnp.sum(f_cable[:, 0] * a1) + jnp.sum(f_cable[:, 1] * a2)
         power = power + jnp.sum(f_hook * V)
-        return gen, f_hook, normal, power
+        return element_forces, f_hook, normal, power
 
     def respond(self, state: CableState, hooks: HookPoints):
         def one(sub, q, qdot):
-            gen, f_hook, normal, power = self._one_cable(sub, q, qdot, hooks)
-            qdd = sub.accelerations(q, qdot, gen)
-            diss = sub.dissipated_power(q, qdot)
-            tension = jnp.max(sub.tensions(q))
+            kin = sub.kinematics(q, qdot)
+            element_forces, f_hook, normal, power = self._one_cable(sub, kin, hooks)
+            qdd = sub.accelerations(q, qdot, element_forces=element_forces, kin=kin)
+            diss = sub.dissipated_power(q, qdot, kin)
+            tension = jnp.max(sub.element_tensions(kin))
             return qdd, diss, f_hook, normal, power, tension
 
         qdd, diss, f_hook, normal, power, tension = jax.vmap(one)(self.subsystems, state.q, state.qdot)

@@ -35,6 +35,20 @@ model conserves energy exactly, so a landing's energy budget closes. Mass is con
 end material coordinates are fixed, so ``rhoA (s_end - s_start)`` is constant whatever flows over
 the pulleys.
 
+How the vector field is computed (issue 6: it is evaluated ~10^5 times per landing, and on a CPU
+its cost is the number of kernels XLA launches, not flops). The kinematics of a state (nodes,
+element tangents, strains, material velocities) are computed once (:meth:`CableSubsystem.kinematics`)
+and shared by the forces, the contact (:mod:`jaxcable.arresting.cable_sets`), the dissipation and the
+tensions. The element terms of Lagrange's equations are written in closed form
+(:meth:`CableSubsystem._element_forces`; autodiff of the element energies is kept as the test
+reference :meth:`CableSubsystem._cable_terms_x`), as is the map ``A^T`` to the generalised
+coordinates. The mass matrix is never formed: its internal-node block is ``rhoA L_j / 6 That_j``
+(x) I3 per span with ``That_j`` constant (it depends only on the material fractions), so its
+inverse is a parameter-only matrix that XLA hoists out of the solver's loop, and the Schur
+complement on the few pulley/block coordinates is eliminated by an unrolled Gauss-Jordan: no
+LAPACK call and no autodiff inside the vector field. ``_accelerations_autodiff`` (dense ``jacfwd``
+mass, LU) is the reference the tests compare with (1e-11 relative).
+
 Glossary
 --------
 ===================  ===========================================================================
@@ -65,6 +79,7 @@ from .buffer import BufferDevice
 
 __all__ = [
     "CableCoords",
+    "CableKinematics",
     "CableRoute",
     "CableState",
     "CableSubsystem",
@@ -187,27 +202,172 @@ class CableRoute(eqx.Module):
         span_of.append(len(self.elements) - 1)
         return np.array(bidx), np.array(iidx), np.array(span_of), np.array(boundary_node)
 
+    def _interpolation_tables(self):
+        """Static 0/1 matrices (N, nb) of the affine node map: ``boundary`` picks a boundary node's own
+        value, ``start``/``end`` pick an internal node's span ends; ``moving`` (N,) flags nodes on the
+        block. With the fractions ``F`` (N,) (0 at boundary nodes) the material coordinates are
+        ``s = W s_b``, ``W = boundary + (1 - F) start + F end``."""
+        bidx, iidx, span_of, _ = self._index_tables()
+        n, nb = len(bidx), len(self.kinds)
+        rows = np.arange(n)
+        boundary = np.zeros((n, nb))
+        boundary[rows[bidx >= 0], bidx[bidx >= 0]] = 1.0
+        start = np.zeros((n, nb))
+        end = np.zeros((n, nb))
+        internal = iidx >= 0
+        start[rows[internal], span_of[internal]] = 1.0
+        end[rows[internal], span_of[internal] + 1] = 1.0
+        moving = np.zeros(n)
+        moving[rows[bidx >= 0]] = np.asarray(self.moving, dtype=float)[bidx[bidx >= 0]]
+        return boundary, start, end, moving
+
+    def interpolation_weights(self):
+        """``W`` (N, nb): material coordinates of all nodes are ``W @ s_b`` (constant in time)."""
+        boundary, start, end, _ = self._interpolation_tables()
+        _, iidx, _, _ = self._index_tables()
+        parts = [jnp.asarray(f, dtype=float).reshape(-1) for f in self.fractions]
+        frac = jnp.concatenate(parts) if self.n_internal else jnp.zeros(0)
+        F = jnp.where(iidx >= 0, frac[np.maximum(iidx, 0)] if self.n_internal else 0.0, 0.0)
+        return boundary + (1.0 - F)[:, None] * start + F[:, None] * end
+
+    def mass_pattern_inverse(self):
+        """``blockdiag_j(That_j^-1)`` (n_int, n_int): inverse of the internal-node consistent-mass
+        pattern. Span j's internal-node mass block is ``rhoA L_j / 6 That_j`` (x) I3 with ``That_j``
+        tridiagonal in the material fractions (diagonal ``2 (dF_left + dF_right)``, off-diagonal the
+        shared element's ``dF``), so it depends only on the (constant) fractions."""
+        bidx, iidx, _, _ = self._index_tables()
+        internal = np.nonzero(iidx >= 0)[0]
+        W = self.interpolation_weights()
+        _, _, end, _ = self._interpolation_tables()
+        # fraction of every node within the span of each element: 0 at the span start, 1 at its end
+        F = jnp.sum(W * end, axis=1)  # internal: F; boundary nodes: 0
+        F_right = jnp.where(iidx[1:] >= 0, F[1:], 1.0)
+        dF = F_right - F[:-1]  # (n_el,) element lengths as fractions of their span
+        dF_node = jnp.concatenate([jnp.zeros(1, dF.dtype), dF, jnp.zeros(1, dF.dtype)])
+        diag = 2.0 * (dF_node[internal] + dF_node[internal + 1])
+        off = jnp.where(np.diff(internal) == 1, dF[internal[:-1]], 0.0)
+        pattern = jnp.diag(diag) + jnp.diag(off, 1) + jnp.diag(off, -1)
+        return jnp.linalg.inv(pattern)
+
     def boundary_s(self, q: CableCoords):
-        s = self.s_boundary0
-        if self.pulley_ids:
-            s = s.at[np.array(self.pulley_ids)].set(q.s)
-        return s
+        return self._boundary_values(self.s_boundary0, q.s)
+
+    def _boundary_values(self, at_ends, at_pulleys):
+        """(nb,) boundary-node values: ``at_ends[i]`` at end nodes, ``at_pulleys`` (n_p,) in order at
+        pulley nodes (a concatenation: no scatter)."""
+        pieces, slot = [], 0
+        for i, kind in enumerate(self.kinds):
+            if kind == "end":
+                pieces.append(at_ends[i : i + 1])
+            else:
+                pieces.append(at_pulleys[slot : slot + 1])
+                slot += 1
+        return jnp.concatenate(pieces)
 
     def boundary_r(self, q: CableCoords):
         shift = jnp.asarray(self.moving, dtype=float)[:, None] * q.u * self.block_direction[None, :]
         return self.boundary_points + shift
 
+    def _node_positions(self, r_boundary, r_internal):
+        """All nodal positions (N, 3) from the boundary (nb, 3) and internal (n_int, 3) ones, in route
+        order (one concatenation of slices: no gather)."""
+        pieces, offset = [], 0
+        for j, n_el in enumerate(self.elements):
+            pieces.append(r_boundary[j : j + 1])
+            if n_el > 1:
+                pieces.append(r_internal[offset : offset + n_el - 1])
+                offset += n_el - 1
+        pieces.append(r_boundary[-1:])
+        return jnp.concatenate(pieces, axis=0)
+
+    def internal_rows(self, x):
+        """Rows of the internal nodes of a nodal array (N, ...) -> (n_int, ...) (slices, no gather)."""
+        pieces, node = [], 0
+        for n_el in self.elements:
+            if n_el > 1:
+                pieces.append(x[node + 1 : node + n_el])
+            node += n_el
+        return jnp.concatenate(pieces) if pieces else x[:0]
+
     def nodes(self, q: CableCoords):
         """All nodal positions (N,3) [m] and material coordinates (N,) [m] (affine in q)."""
-        bidx, iidx, span_of, _ = self._index_tables()
-        rb = self.boundary_r(q)
-        sb = self.boundary_s(q)
-        frac = jnp.concatenate([jnp.asarray(f, dtype=float).reshape(-1) for f in self.fractions])
-        is_b = bidx >= 0
-        r = jnp.where(is_b[:, None], rb[np.maximum(bidx, 0)], q.r[np.maximum(iidx, 0)])
-        s_int = sb[span_of] + frac[np.maximum(iidx, 0)] * (sb[span_of + 1] - sb[span_of])
-        s = jnp.where(is_b, sb[np.maximum(bidx, 0)], s_int)
-        return r, s
+        r = self._node_positions(self.boundary_r(q), q.r)
+        return r, _matvec(self.interpolation_weights(), self.boundary_s(q))
+
+    def node_velocities(self, qdot: CableCoords):
+        """Nodal velocities (N,3) [m/s] and material rates (N,) [m/s] of the rates ``qdot`` (the map
+        is affine in q with a constant linear part, so the rates do not depend on q)."""
+        v_boundary = jnp.asarray(self.moving, dtype=float)[:, None] * qdot.u * self.block_direction[None, :]
+        sd_boundary = self._boundary_values(jnp.zeros_like(self.s_boundary0), qdot.s)
+        v = self._node_positions(v_boundary, qdot.r)
+        return v, _matvec(self.interpolation_weights(), sd_boundary)
+
+
+class CableKinematics(eqx.Module):
+    """Nodal and element kinematics of one cable state (see :meth:`CableSubsystem.kinematics`)."""
+
+    r: jax.Array
+    """(N, 3) nodal positions [m]."""
+    s: jax.Array
+    """(N,) nodal material coordinates [m]."""
+    v: jax.Array
+    """(N, 3) nodal velocities [m/s]."""
+    sd: jax.Array
+    """(N,) nodal material rates [m/s]."""
+    W: jax.Array
+    """(N, nb) interpolation weights ``s = W s_b`` [-]."""
+    length: jax.Array
+    """(n_el,) material element lengths ``L`` [m]."""
+    tangent: jax.Array
+    """(n_el, 3) ``r' = (r2 - r1) / L`` [-]."""
+    tangent_sq: jax.Array
+    """(n_el,) ``|r'|^2`` [-]."""
+    strain: jax.Array
+    """(n_el,) Green strain [-]."""
+    strain_rate: jax.Array
+    """(n_el,) its rate [1/s]."""
+    a1: jax.Array
+    """(n_el, 3) material velocity at each element's first end ``v_1 - r' sdot_1`` [m/s]."""
+    a2: jax.Array
+    """(n_el, 3) same at the second end [m/s]."""
+
+
+def _material_force_rows(tangent, element_forces):
+    """Point forces on the material at element ends (n_el, 2, 3) -> their ``(r, s)`` rows: the
+    power ``F . (v - r' sdot)`` gives ``F`` on ``r`` and ``-r'.F`` on ``s``."""
+    return element_forces, -jnp.sum(tangent[:, None, :] * element_forces, axis=2)
+
+
+def _scatter_element_ends(rows):
+    """Element-end rows ``(f_r (n_el, 2, 3), f_s (n_el, 2))`` summed onto the nodes (N, 3), (N,)
+    (two shifted adds: no scatter)."""
+    f_r, f_s = rows
+    zr = jnp.zeros((1, 3), f_r.dtype)
+    zs = jnp.zeros((1,), f_s.dtype)
+    F_r = jnp.concatenate([f_r[:, 0], zr]) + jnp.concatenate([zr, f_r[:, 1]])
+    F_s = jnp.concatenate([f_s[:, 0], zs]) + jnp.concatenate([zs, f_s[:, 1]])
+    return F_r, F_s
+
+
+def _matvec(A, x):
+    """``A @ x`` as broadcast-multiply-sum: the small contractions of the vector field are written
+    this way throughout, so XLA fuses them with their neighbours (a ``dot`` is a separate kernel
+    launch on CPU, and launches, not flops, dominate at these sizes)."""
+    return jnp.sum(A * x[None, :], axis=1)
+
+
+def _small_solve(A, b):
+    """``A^-1 b`` for a small (n, n) matrix with positive pivots (SPD, possibly with some rows
+    replaced by identity rows): Gauss-Jordan without pivoting, unrolled (n static), each step one
+    elementwise update (XLA fuses them). A LAPACK call per evaluation costs more than this whole
+    elimination for n ~ 5 (measured: 3.5 vs 1.1 us)."""
+    n = A.shape[-1]
+    M = jnp.concatenate([A, b[:, None]], axis=1)
+    rows = np.arange(n)[:, None]
+    for k in range(n):
+        pivot_row = M[k] / M[k, k]
+        M = jnp.where(rows == k, pivot_row[None, :], M - M[:, k : k + 1] * pivot_row[None, :])
+    return M[:, n]
 
 
 def _element_terms(r1, r2, s1, s2):
@@ -276,23 +436,186 @@ class CableSubsystem(eqx.Module):
         on the material is ``F . (v_i - r' sdot_i)`` at each end (the ALE ``N`` of eq 31), so the
         material coordinates get ``-r' . F``. Returned as :class:`CableCoords`.
         """
-
-        def power(qdot):
-            (r, s), (v, sd) = jax.jvp(self.route.nodes, (q,), (qdot,))
-            _, tangent, _ = jax.vmap(_element_terms)(r[:-1], r[1:], s[:-1], s[1:])
-            a1 = v[:-1] - tangent * sd[:-1, None]
-            a2 = v[1:] - tangent * sd[1:, None]
-            return jnp.sum(element_forces[:, 0] * a1) + jnp.sum(element_forces[:, 1] * a2)
-
-        zero = jax.tree_util.tree_map(jnp.zeros_like, q)
-        return jax.grad(power)(zero)
+        kin = self.kinematics(q, jax.tree_util.tree_map(jnp.zeros_like, q))
+        F_r, F_s = _scatter_element_ends(_material_force_rows(kin.tangent, element_forces))
+        Q_r, Q_s, Q_u = self._generalised(kin, F_r, F_s)
+        return CableCoords(r=Q_r, s=Q_s, u=Q_u)
 
     # -- dynamics --------------------------------------------------------------------------------
+    def kinematics(self, q, qdot) -> "CableKinematics":
+        """Nodal and element kinematics of the state (computed once per evaluation and shared by the
+        accelerations, the contact, the dissipation and the tensions)."""
+        route = self.route
+        W = route.interpolation_weights()
+        r = route._node_positions(route.boundary_r(q), q.r)
+        s = _matvec(W, route.boundary_s(q))
+        v, sd = route.node_velocities(qdot)
+        length = s[1:] - s[:-1]
+        tangent = (r[1:] - r[:-1]) / length[:, None]
+        tt = jnp.sum(tangent * tangent, axis=1)
+        d_v = v[1:] - v[:-1]
+        d_sd = sd[1:] - sd[:-1]
+        strain_rate = (jnp.sum(tangent * d_v, axis=1) - tt * d_sd) / length
+        return CableKinematics(
+            r=r, s=s, v=v, sd=sd, W=W, length=length, tangent=tangent, tangent_sq=tt,
+            strain=0.5 * (tt - 1.0), strain_rate=strain_rate,
+            a1=v[:-1] - tangent * sd[:-1, None], a2=v[1:] - tangent * sd[1:, None],
+        )
+
+    def element_tensions(self, kin: "CableKinematics"):
+        """:meth:`tensions` from precomputed kinematics [N], (n_elements,)."""
+        factor = axial_tension_factor(kin.strain, self.cable.slack_width)
+        return self.cable.EA_N * factor * jnp.sqrt(kin.tangent_sq)
+
+    def _element_forces(self, kin: "CableKinematics"):
+        """Closed form of the element terms of Lagrange's equations in nodal coordinates
+        ``x = [r, s]``: ``f = -(d p / d x) x_dot + dT/dx - dV/dx - dD/dx_dot`` with ``p = dT/dx_dot``
+        (:meth:`_cable_terms_x` is the autodiff reference; the tests check they agree).
+
+        Per element (ends 1, 2), with ``c = rhoA L / 6``, ``a_i = v_i - t sdot_i`` (material
+        velocities), ``m_1 = c (2 a_1 + a_2)``, ``m_2 = c (a_1 + 2 a_2)`` (their momenta),
+        ``T = (a_1.m_1 + a_2.m_2) / 2``, ``t_dot = (dv - t dsdot) / L`` (rate of the tangent at fixed
+        velocities), ``g = dT/dt = -(sdot_1 m_1 + sdot_2 m_2)``:
+
+        * inertia: ``f_r1 = -m1_dot - g / L``, ``f_r2 = -m2_dot + g / L``,
+          ``f_si = t_dot.m_i + t.mi_dot -+ (t.g - T) / L`` with
+          ``mi_dot = (dsdot / L) m_i - c (2 sdot_i + sdot_j) t_dot`` (``d c / dt = rhoA dsdot / 6``);
+        * elastic + damping with the axial force ``N = EA (psi'(eps) + beta eps_dot)``:
+          ``f_r1 = N t``, ``f_r2 = -N t``, ``f_s1 = -N |t|^2 + EA psi``, ``f_s2 = -f_s1``;
+        * gravity ``g_vec``: ``f_ri = rhoA L g_vec / 2``, ``f_s1 = -rhoA g_vec . (r1 + r2) / 2 = -f_s2``.
+
+        Returns ``(f_r (n_el, 2, 3), f_s (n_el, 2))``.
+        """
+        rhoA, EA = self.cable.rhoA_kg_per_m, self.cable.EA_N
+        L, t, tt = kin.length, kin.tangent, kin.tangent_sq
+        a1, a2 = kin.a1, kin.a2
+        sd1, sd2 = kin.sd[:-1, None], kin.sd[1:, None]
+        c = (rhoA / 6.0) * L[:, None]
+        m1 = c * (2.0 * a1 + a2)
+        m2 = c * (a1 + 2.0 * a2)
+        kinetic = 0.5 * jnp.sum(a1 * m1 + a2 * m2, axis=1)
+        d_sd = (kin.sd[1:] - kin.sd[:-1])[:, None]
+        inv_L = 1.0 / L[:, None]
+        t_dot = ((kin.v[1:] - kin.v[:-1]) - t * d_sd) * inv_L
+        m1_dot = d_sd * inv_L * m1 - c * (2.0 * sd1 + sd2) * t_dot
+        m2_dot = d_sd * inv_L * m2 - c * (sd1 + 2.0 * sd2) * t_dot
+        g = -(sd1 * m1 + sd2 * m2)
+        s_inertia = (jnp.sum(t * g, axis=1) - kinetic) / L
+        tension = axial_tension_factor(kin.strain, self.cable.slack_width)
+        axial = EA * (tension + self.cable.damping_s * kin.strain_rate)
+        weight = (0.5 * rhoA) * L[:, None] * self.gravity[None, :]
+        f_r1 = -m1_dot - g * inv_L + axial[:, None] * t + weight
+        f_r2 = -m2_dot + g * inv_L - axial[:, None] * t + weight
+        mid = 0.5 * (kin.r[:-1] + kin.r[1:])
+        elastic_energy = EA * strain_energy_density(kin.strain, self.cable.slack_width)
+        s_static = -axial * tt + elastic_energy - rhoA * jnp.sum(mid * self.gravity, axis=1)
+        f_s1 = jnp.sum(t_dot * m1 + t * m1_dot, axis=1) + s_inertia + s_static
+        f_s2 = jnp.sum(t_dot * m2 + t * m2_dot, axis=1) - s_inertia - s_static
+        return jnp.stack([f_r1, f_r2], axis=1), jnp.stack([f_s1, f_s2], axis=1)
+
+    def _generalised(self, kin: "CableKinematics", F_r, F_s):
+        """``A^T`` of nodal forces ``F_r`` (N, 3), ``F_s`` (N,): generalised forces (r, s, u)."""
+        route = self.route
+        _, _, _, moving = route._interpolation_tables()
+        Q_r = route.internal_rows(F_r)
+        pulleys = np.array(route.pulley_ids, dtype=int)
+        Q_s = jnp.sum(kin.W[:, pulleys] * F_s[:, None], axis=0)
+        Q_u = jnp.sum(moving[:, None] * F_r * route.block_direction[None, :])
+        return Q_r, Q_s, Q_u
+
+    def accelerations(
+        self, q, qdot, external: CableCoords | None = None, reel_acceleration=None, element_forces=None, kin=None
+    ):
+        """``q_dd`` from Lagrange's equations (see module docstring); ``external`` generalised forces,
+        ``element_forces`` (n_elements, 2, 3) world forces [N] on the material at each element's
+        ends (as :meth:`material_point_forces`), ``kin`` precomputed :meth:`kinematics`.
+
+        Active pulleys (eq 47, ``s_dot = v_p``): their material coordinates move as prescribed; the
+        state carries ``s_dot = v_p`` and ``reel_acceleration`` (n_active,) [m/s^2] is ``dv_p/dt``
+        (default 0: constant reel speed). Their rows of the reduced system are replaced by the
+        prescription; the motor supplies whatever force that takes (the multiplier of eq 47).
+
+        Nodal coordinates are affine in ``q`` (``x = A q + b``, ``A`` constant), so Lagrange's
+        equations in ``q`` are ``A^T`` times those in ``x``: ``(A^T M_x A) q_dd = A^T f_x + Q_u``.
+        ``A^T M_x A`` is never formed densely. Every element's kinetic energy is
+        ``c (|a_1|^2 + a_1.a_2 + |a_2|^2)``, ``c = rhoA L / 6``, with the material velocities ``a_i``;
+        a node's ``a`` is its internal-node velocity (identity) plus ``G q_slow_dot``, ``G`` (3, n_slow)
+        = ``[-t W_pulleys, block direction if the node rides the block]`` for the few "slow"
+        coordinates (pulley ``s``, block ``u``). Hence the internal-node block is the scalar
+        consistent-mass tridiagonal (x) I3, the coupling rows are ``c (2 G_self + G_other)`` and the
+        slow block is ``sum c (G_1^T (2 G_1 + G_2) + G_2^T (G_1 + 2 G_2))``; we solve by the Schur
+        complement on the slow coordinates. The internal-node block's inverse is a constant pattern
+        scaled per span (:meth:`CableRoute.mass_pattern_inverse`), so the solve is one small matmul
+        and a Gauss-Jordan on the few slow coordinates: O(n) per cable, all in closed form (no
+        autodiff and no LAPACK call inside the vector field).
+        """
+        route = self.route
+        kin = self.kinematics(q, qdot) if kin is None else kin
+        f_r, f_s = self._element_forces(kin)
+        if element_forces is not None:
+            e_r, e_s = _material_force_rows(kin.tangent, element_forces)
+            f_r, f_s = f_r + e_r, f_s + e_s
+        F_r, F_s = _scatter_element_ends((f_r, f_s))
+        Q_r, Q_s, Q_u = self._generalised(kin, F_r, F_s)
+        b = self.buffer
+        g = -self.gravity[2]
+        Q_u = Q_u - b.counterweight_mass_kg * g * b.transfer_rate + b.generalized_force(qdot.u)
+        if external is not None:
+            Q_r, Q_s, Q_u = Q_r + external.r, Q_s + external.s, Q_u + external.u
+        # slow Jacobians of the material velocity at each element end: (n_el, 2 ends, 3, n_slow)
+        _, iidx, _, _ = route._index_tables()
+        _, _, _, moving = route._interpolation_tables()
+        internal = np.nonzero(iidx >= 0)[0]
+        pulleys = np.array(route.pulley_ids, dtype=int)
+        S = kin.W[:, pulleys]  # (N, n_p) d s_node / d s_pulley
+        t = kin.tangent
+        U = moving[:, None] * route.block_direction[None, :]  # (N, 3) d r_node / d u
+        G1 = jnp.concatenate([-t[:, :, None] * S[:-1, None, :], U[:-1, :, None]], axis=2)
+        G2 = jnp.concatenate([-t[:, :, None] * S[1:, None, :], U[1:, :, None]], axis=2)
+        c = (self.cable.rhoA_kg_per_m / 6.0) * kin.length
+        H1 = c[:, None, None] * (2.0 * G1 + G2)
+        H2 = c[:, None, None] * (G1 + 2.0 * G2)
+        M_ss = jnp.sum(G1[..., :, None] * H1[..., None, :] + G2[..., :, None] * H2[..., None, :], axis=(0, 1))
+        n_slow = M_ss.shape[0]
+        M_ss = M_ss.at[n_slow - 1, n_slow - 1].add(b.counterweight_mass_kg * b.transfer_rate**2)
+        Q_slow = jnp.concatenate([Q_s, Q_u[None]])
+        active = np.array(route.active_slots, dtype=int)
+        if internal.size:
+            zero = jnp.zeros((1,) + H1.shape[1:], H1.dtype)
+            # coupling rows of the internal nodes: (n_int, 3, n_slow)
+            M_rs = route.internal_rows(jnp.concatenate([H1, zero]) + jnp.concatenate([zero, H2]))
+            # The internal-node block is blockdiag_j(rhoA L_j / 6 That_j) (x) I3 over the spans j, with
+            # L_j the span's material length and That_j the tridiagonal of its material fractions
+            # (constant in time), so its inverse is a scaled constant matrix: one small matmul per
+            # evaluation, and the inverse itself depends only on parameters, so XLA hoists it out of
+            # the solver's loop (no LAPACK call per evaluation; measured in bench_ale_speed.py).
+            n_int = internal.size
+            sb = route.boundary_s(q)
+            span_length = jnp.concatenate(
+                [jnp.broadcast_to(sb[j + 1] - sb[j], (n - 1,)) for j, n in enumerate(route.elements) if n > 1]
+            )
+            rhs = jnp.concatenate([Q_r, M_rs.reshape(n_int, 3 * n_slow)], axis=1)
+            sol = (6.0 / self.cable.rhoA_kg_per_m) / span_length[:, None] * (route.mass_pattern_inverse() @ rhs)
+            Minv_fr = sol[:, :3]
+            Minv_Mrs = sol[:, 3:].reshape(n_int, 3, n_slow)
+            schur = M_ss - jnp.sum(M_rs[..., :, None] * Minv_Mrs[..., None, :], axis=(0, 1))
+            reduced_rhs = Q_slow - jnp.sum(M_rs * Minv_fr[..., None], axis=(0, 1))
+        else:
+            schur, reduced_rhs = M_ss, Q_slow
+        if active.size:
+            prescribed = jnp.zeros(active.size) if reel_acceleration is None else jnp.asarray(reel_acceleration)
+            schur = schur.at[active].set(jnp.eye(n_slow, dtype=schur.dtype)[active])
+            reduced_rhs = reduced_rhs.at[active].set(prescribed)
+        a_slow = _small_solve(schur, reduced_rhs)
+        a_r = Minv_fr - jnp.sum(Minv_Mrs * a_slow, axis=-1) if internal.size else q.r * 0.0
+        return CableCoords(r=a_r, s=a_slow[:-1], u=a_slow[-1])
+
     def _cable_terms_x(self, x, xd, assemble=True):
         """Cable mass matrix and forces in full nodal coordinates ``x = [r_i, s_i]`` (4N,).
 
         Returns ``(M_full (4N,4N), f (4N,))`` with ``f = -(d/dx(M xd)) xd + dT/dx - dV/dx - dD/dxd``
-        for the cable alone (element by element, closed-form mass, autodiff for the rest)."""
+        for the cable alone (element by element, closed-form mass, autodiff for the rest). The test
+        reference of :meth:`_element_forces` (not used by the vector field)."""
         n = x.shape[0] // 4
         X = x.reshape(n, 4)
         rhoA, EA = self.cable.rhoA_kg_per_m, self.cable.EA_N
@@ -337,94 +660,6 @@ class CableSubsystem(eqx.Module):
         M = jnp.zeros((4 * n, 4 * n), x.dtype).at[idx[:, :, None], idx[:, None, :]].add(M_e)
         return M, f
 
-    def accelerations(self, q, qdot, external: CableCoords | None = None, reel_acceleration=None):
-        """``q_dd`` from Lagrange's equations (see module docstring); ``external`` generalised forces.
-
-        Active pulleys (eq 47, ``s_dot = v_p``): their material coordinates move as prescribed; the
-        state carries ``s_dot = v_p`` and ``reel_acceleration`` (n_active,) [m/s^2] is ``dv_p/dt``
-        (default 0: constant reel speed). Their rows of the reduced system are replaced by the
-        prescription; the motor supplies whatever force that takes (the multiplier of eq 47).
-
-        Nodal coordinates are affine in ``q`` (``x = A q + b``, ``A`` constant), so Lagrange's
-        equations in ``q`` are ``A^T`` times those in ``x``: ``(A^T M_x A) q_dd = A^T f_x + Q_u``.
-        ``A^T M_x A`` is never formed densely: its block for the internal-node positions is the
-        scalar consistent-mass tridiagonal (x) I3 (the r-r block of every ALE element mass is
-        ``rhoA L/6 [[2,1],[1,2]] (x) I3``), coupled to the few pulley/block coordinates; we solve by
-        the Schur complement on those, with one tridiagonal solve: O(n) per cable.
-        """
-        flat_q, unravel = ravel_pytree(q)
-        flat_qd, _ = ravel_pytree(qdot)
-        n_r = q.r.size
-        n_int = q.r.shape[0]
-
-        def xfun(fq):
-            r, s = self.route.nodes(unravel(fq))
-            return jnp.concatenate([r, s[:, None]], axis=1).reshape(-1)
-
-        x, xd = jax.jvp(xfun, (flat_q,), (flat_qd,))
-        _, xfun_T = jax.vjp(xfun, flat_q)  # A^T (the map is affine)
-        M_x_apply, f_x, lengths = self._cable_terms_x_apply(x, xd)
-        rhs = xfun_T(f_x)[0]
-        # columns of A^T M_x A for the few "slow" coordinates (pulley s, block u)
-        n_slow = flat_q.shape[0] - n_r
-        eye = jnp.eye(flat_q.shape[0], dtype=x.dtype)[n_r:]
-        cols = jax.vmap(lambda e: xfun_T(M_x_apply(jax.jvp(xfun, (flat_q,), (e,))[1] - 0 * x))[0])(eye)
-        M_slow = cols.T  # (n_dof, n_slow): column j = M_q e_j
-        # counterweight: kinetic m_w alpha^2 u_dot^2 / 2, potential m_w g alpha u, brake
-        b = self.buffer
-        u_slow = n_slow - 1  # ravel order of CableCoords: r, s, u
-        M_slow = M_slow.at[n_r + u_slow, u_slow].add(b.counterweight_mass_kg * b.transfer_rate**2)
-        g = -self.gravity[2]
-        rhs = rhs.at[-1].add(-b.counterweight_mass_kg * g * b.transfer_rate + b.generalized_force(qdot.u))
-        if external is not None:
-            rhs = rhs + ravel_pytree(external)[0]
-        # tridiagonal consistent mass of the internal nodes (per coordinate direction)
-        bidx, iidx, _, _ = self.route._index_tables()
-        full_of_int = np.nonzero(iidx >= 0)[0]
-        rhoA = self.cable.rhoA_kg_per_m
-        diag = rhoA * (lengths[full_of_int - 1] + lengths[full_of_int]) / 3.0
-        has_next = (iidx[np.minimum(full_of_int + 1, len(iidx) - 1)] >= 0) & (full_of_int + 1 < len(iidx))
-        upper = jnp.where(has_next, rhoA * lengths[full_of_int] / 6.0, 0.0)
-        du = upper.at[-1].set(0.0)
-        dl = jnp.concatenate([jnp.zeros(1, x.dtype), upper[:-1]])
-        M_rs = M_slow[:n_r].reshape(n_int, 3 * n_slow)
-        M_ss = M_slow[n_r:]
-        f_r = rhs[:n_r].reshape(n_int, 3)
-        f_s = rhs[n_r:]
-        # (a dense solve of this small n_int x n_int tridiagonal: LAPACK gtsv has no batched CPU
-        # kernel under vmap in this jaxlib, and n_int ~ 25 makes the dense LU ~1e4 flops)
-        tri = jnp.diag(diag) + jnp.diag(du[:-1], 1) + jnp.diag(dl[1:], -1)
-        sol = jnp.linalg.solve(tri, jnp.concatenate([f_r, M_rs], axis=1))
-        Minv_fr = sol[:, :3].reshape(-1)
-        Minv_Mrs = sol[:, 3:].reshape(n_int, 3, n_slow).reshape(n_r, n_slow)
-        M_rs_flat = M_slow[:n_r]
-        schur = M_ss - M_rs_flat.T @ Minv_Mrs
-        reduced_rhs = f_s - M_rs_flat.T @ Minv_fr
-        active = np.array(self.route.active_slots, dtype=int)
-        if active.size:
-            prescribed = jnp.zeros(active.size) if reel_acceleration is None else jnp.asarray(reel_acceleration)
-            schur = schur.at[active].set(jnp.eye(n_slow, dtype=x.dtype)[active])
-            reduced_rhs = reduced_rhs.at[active].set(prescribed)
-        a_s = jnp.linalg.solve(schur, reduced_rhs)
-        a_r = Minv_fr - Minv_Mrs @ a_s
-        return unravel(jnp.concatenate([a_r, a_s]))
-
-    def _cable_terms_x_apply(self, x, xd):
-        """As :meth:`_cable_terms_x`, but the mass matrix as a function ``v -> M_x v`` (element by
-        element, never assembled), and the element material lengths."""
-        n = x.shape[0] // 4
-        X = x.reshape(n, 4)
-        rhoA = self.cable.rhoA_kg_per_m
-        M_x, f = self._cable_terms_x(x, xd, assemble=False)
-        lengths = X[1:, 3] - X[:-1, 3]
-        idx = 4 * jnp.arange(n - 1)[:, None] + jnp.arange(8)[None, :]
-
-        def apply(v):
-            ve = v[idx]
-            return jnp.zeros(4 * n, x.dtype).at[idx].add(jnp.einsum("eij,ej->ei", M_x, ve))
-
-        return apply, f, lengths
-
     def _accelerations_autodiff(self, q, qdot, external: CableCoords | None = None):
         """Reference implementation: Lagrange's equations by autodiff of the total T, V, D in q
         (slow: the mass matrix by ``jacfwd``); the tests check :meth:`accelerations` against it."""
@@ -450,13 +685,17 @@ class CableSubsystem(eqx.Module):
             rhs = rhs + ravel_pytree(external)[0]
         return unravel(jnp.linalg.solve(mass, rhs))
 
-    def dissipated_power(self, q, qdot):
-        """Power dissipated by cable damping and the brake [W] (>= 0)."""
-        return 2.0 * self.dissipation_function(q, qdot) + self.buffer.brake_power(qdot.u)
+    def dissipated_power(self, q, qdot, kin=None):
+        """Power dissipated by cable damping and the brake [W] (>= 0); ``kin``: precomputed
+        :meth:`kinematics` (``2 D = beta EA sum L eps_dot^2``)."""
+        kin = self.kinematics(q, qdot) if kin is None else kin
+        damping = self.cable.damping_s * self.cable.EA_N * jnp.sum(kin.length * kin.strain_rate**2)
+        return damping + self.buffer.brake_power(qdot.u)
 
     def derivative(self, state: CableState, external: CableCoords | None = None) -> CableState:
-        qdd = self.accelerations(state.q, state.qdot, external)
-        return CableState(q=state.qdot, qdot=qdd, dissipated=self.dissipated_power(state.q, state.qdot))
+        kin = self.kinematics(state.q, state.qdot)
+        qdd = self.accelerations(state.q, state.qdot, external, kin=kin)
+        return CableState(q=state.qdot, qdot=qdd, dissipated=self.dissipated_power(state.q, state.qdot, kin))
 
     def energy(self, state: CableState):
         """dict of kinetic, elastic, cable_gravity, counterweight_potential, dissipated [J]."""

@@ -212,9 +212,13 @@ def _dot(a, b):
 
 
 def _fallback_normal(d1, d2):
-    """A unit vector normal to both segment directions, for coincident axis points (gap = 0)."""
+    """A unit vector normal to both segment directions, for coincident axis points (gap = 0).
+
+    The coordinate axis least aligned with the longer direction is picked by comparison with the
+    ``argmin`` (not by indexing an identity matrix: under ``vmap`` that is a gather, and this
+    function is evaluated for every pair although it is used only at gap = 0)."""
     longer = jnp.where(_dot(d1, d1) >= _dot(d2, d2), d1, d2)
-    axis = jnp.eye(3, dtype=longer.dtype)[jnp.argmin(jnp.abs(longer))]
+    axis = (jnp.arange(3) == jnp.argmin(jnp.abs(longer))).astype(longer.dtype)
     perpendicular = safe_normalize(jnp.cross(longer, axis), jnp.array([0.0, 0.0, 1.0], longer.dtype))
     return safe_normalize(jnp.cross(d1, d2), perpendicular)
 

@@ -83,6 +83,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jax.scipy.linalg import cho_factor, cho_solve
 
 from .._math import safe_normalize
 from .._validation import _concrete, check_finite, check_positive
@@ -673,10 +674,7 @@ def accelerations(
     if generalized_force is not None:
         Q = Q + generalized_force
     M = _mass_matrix(system, Jv, Jw)
-    # LU rather than Cholesky: on this jaxlib the reverse-mode program of the two-phase landing
-    # failed with "no registered implementation for lapack_dpotrf_ffi" (forward passes were fine);
-    # M is small (6 per free body + hinges), so the cost difference is negligible.
-    u_dot = jnp.linalg.solve(M, Q)
+    u_dot = cho_solve(cho_factor(M), Q)
     v_dot, omega_dot, hinge_acc = _split_speeds(system, u_dot)
     r_dot, quat_dot, hinge_rate = _kinematic_rates(q, u, system)
     norm_sq = jnp.sum(state.quat**2, axis=1, keepdims=True)

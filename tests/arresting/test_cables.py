@@ -211,3 +211,165 @@ def test_active_pulley_reels_cable_at_the_prescribed_rate():
 
 def eqx_tree_set_s(coords, s):
     return CableCoords(r=coords.r, s=s, u=coords.u)
+
+
+# -- the closed-form vector field against autodiff of the Lagrangian ------------------------------
+
+
+def _random_state(q0, seed, spread=1e-2):
+    """A state near ``q0`` with every rate nonzero (material sliding over the pulleys, nodes moving)."""
+    rng = np.random.default_rng(seed)
+    flat, unravel = jax.flatten_util.ravel_pytree(q0)
+    q = unravel(flat + spread * jnp.asarray(rng.normal(size=flat.shape)))
+    qdot = unravel(jnp.asarray(rng.normal(size=flat.shape)))
+    return q, qdot, unravel, rng
+
+
+def _buffer_subsystem(damping_s=1e-3):
+    route, q0 = _buffer_route()
+    cable = AleCable(EA_N=2.64e8, rhoA_kg_per_m=9.8, damping_s=damping_s)
+    return CableSubsystem(route, cable, BufferDevice(counterweight_mass_kg=300.0)), q0
+
+
+def test_closed_form_element_forces_match_autodiff_of_T_V_D():
+    """Per element, ``-(dp/dx) x_dot + dT/dx - dV/dx - dD/dx_dot`` in closed form (the vector field)
+    equals autodiff of the element's kinetic energy, potential and Rayleigh function, with every node
+    sliding through the material (s_dot != 0) and damping on."""
+    from jaxcable.arresting.cables import _scatter_element_ends
+
+    sub, q0 = _buffer_subsystem()
+    q, qdot, _, _ = _random_state(q0, 0)
+
+    @jax.jit
+    def both(q, qdot):
+        kin = sub.kinematics(q, qdot)
+        F_r, F_s = _scatter_element_ends(sub._element_forces(kin))
+        closed = jnp.concatenate([F_r, F_s[:, None]], axis=1).reshape(-1)
+        x = jnp.concatenate([kin.r, kin.s[:, None]], axis=1).reshape(-1)
+        xd = jnp.concatenate([kin.v, kin.sd[:, None]], axis=1).reshape(-1)
+        _, reference = sub._cable_terms_x(x, xd, assemble=False)
+        return closed, reference
+
+    closed, reference = both(q, qdot)
+    scale = float(jnp.max(jnp.abs(reference)))
+    assert scale > 1e3  # a loaded, moving cable
+    np.testing.assert_allclose(np.asarray(closed), np.asarray(reference), rtol=0, atol=1e-10 * scale)
+
+
+@pytest.fixture(scope="module")
+def buffer_accelerations():
+    """Compiled fast and reference accelerations of the buffer route (shared by two tests)."""
+    sub, q0 = _buffer_subsystem()
+    fast = jax.jit(lambda q, qd, ext, ef: sub.accelerations(q, qd, ext, element_forces=ef))
+    reference = jax.jit(lambda q, qd, ext: sub._accelerations_autodiff(q, qd, ext))
+    return sub, q0, fast, reference
+
+
+def test_accelerations_match_dense_autodiff_lagrange(buffer_accelerations):
+    """The O(n) solve (closed-form forces, Schur complement on the pulley/block coordinates, the
+    constant mass-pattern inverse, unrolled elimination) against Lagrange's equations by autodiff of
+    the total T, V, D in q with a dense jacfwd mass matrix and LU, with external generalised forces
+    and forces on the material at element ends (through :meth:`material_point_forces`)."""
+    sub, q0, fast, reference = buffer_accelerations
+    n_el = sum(sub.route.elements)
+    for seed in range(3):
+        q, qdot, unravel, rng = _random_state(q0, seed)
+        flat = jax.flatten_util.ravel_pytree(q0)[0]
+        external = unravel(1e3 * jnp.asarray(rng.normal(size=flat.shape)))
+        element_forces = 1e4 * jnp.asarray(rng.normal(size=(n_el, 2, 3)))
+        got = jax.flatten_util.ravel_pytree(fast(q, qdot, external, element_forces))[0]
+        total = jax.tree_util.tree_map(jnp.add, external, sub.material_point_forces(q, element_forces))
+        want = jax.flatten_util.ravel_pytree(reference(q, qdot, total))[0]
+        scale = float(jnp.max(jnp.abs(want)))
+        np.testing.assert_allclose(np.asarray(got), np.asarray(want), rtol=0, atol=1e-11 * scale)
+
+
+def test_material_point_forces_are_the_power_gradient():
+    """``material_point_forces`` is d(power)/d(q_dot) of ``F . (v - r' s_dot)`` at the element ends,
+    the definition, here by autodiff through the nodal map (independent of the closed form)."""
+    sub, q0 = _buffer_subsystem()
+    q, _, unravel, rng = _random_state(q0, 4)
+    n_el = sum(sub.route.elements)
+    forces = 1e4 * jnp.asarray(rng.normal(size=(n_el, 2, 3)))
+
+    def power(qdot):
+        (r, s), (v, sd) = jax.jvp(sub.route.nodes, (q,), (qdot,))
+        tangent = (r[1:] - r[:-1]) / (s[1:] - s[:-1])[:, None]
+        a1 = v[:-1] - tangent * sd[:-1, None]
+        a2 = v[1:] - tangent * sd[1:, None]
+        return jnp.sum(forces[:, 0] * a1) + jnp.sum(forces[:, 1] * a2)
+
+    zero = jax.tree_util.tree_map(jnp.zeros_like, q)
+    want = jax.flatten_util.ravel_pytree(jax.grad(power)(zero))[0]
+    got = jax.flatten_util.ravel_pytree(sub.material_point_forces(q, forces))[0]
+    np.testing.assert_allclose(np.asarray(got), np.asarray(want), rtol=1e-12, atol=1e-9)
+
+
+def test_nodes_follow_the_mesh_rules():
+    """Eqs 32-34 node by node (an explicit loop, not the vectorised map): ends keep their material
+    coordinate, pulley nodes take q.s, internal nodes sit at s_b1 + f (s_b2 - s_b1); moving nodes
+    ride the block, internal positions are q.r."""
+    route, q0 = _buffer_route()
+    q, qdot, _, _ = _random_state(q0, 5)
+    r, s = route.nodes(q)
+    v, sd = route.node_velocities(qdot)
+    sb, sbd, slot = [], [], 0
+    for i, kind in enumerate(route.kinds):
+        if kind == "end":
+            sb.append(float(route.s_boundary0[i]))
+            sbd.append(0.0)
+        else:
+            sb.append(float(q.s[slot]))
+            sbd.append(float(qdot.s[slot]))
+            slot += 1
+    node, internal = 0, 0
+    for j, fr in enumerate(route.fractions):
+        for k, f in enumerate([0.0] + list(np.asarray(fr))):
+            if k == 0:
+                shift = float(q.u) if route.moving[j] else 0.0
+                assert np.allclose(r[node], np.asarray(route.boundary_points[j]) + [0, 0, shift])
+                rate = float(qdot.u) if route.moving[j] else 0.0
+                assert np.allclose(v[node], [0, 0, rate])
+                assert s[node] == pytest.approx(sb[j], abs=1e-12)
+            else:
+                assert np.allclose(r[node], q.r[internal]) and np.allclose(v[node], qdot.r[internal])
+                assert s[node] == pytest.approx(sb[j] + f * (sb[j + 1] - sb[j]), abs=1e-12)
+                assert sd[node] == pytest.approx(sbd[j] + f * (sbd[j + 1] - sbd[j]), abs=1e-12)
+                internal += 1
+            node += 1
+    assert s[-1] == pytest.approx(sb[-1], abs=1e-12) and node == r.shape[0] - 1
+
+
+def test_active_pulley_rows_are_prescribed_and_the_rest_is_lagrange():
+    """With an active pulley (eq 47) the solve returns the prescribed reel acceleration for its s,
+    and every other row satisfies the dense autodiff equations ``M q_dd = rhs`` (the motor's force
+    acts on the active row only)."""
+    pts = [[-10.0, 0, 0], [0, 0, 0], [10.0, 0, -1.0], [20.0, 0, 0]]
+    route, q0 = _route(pts, ["end", "active", "pulley", "end"], [False] * 4, [4, 3, 2], 1.001)
+    sub = CableSubsystem(route, AleCable(EA_N=1e6, rhoA_kg_per_m=1.0, damping_s=1e-3), BufferDevice())
+    q, qdot, unravel, _ = _random_state(q0, 6)
+    flat_q, _ = jax.flatten_util.ravel_pytree(q)
+    flat_qd, _ = jax.flatten_util.ravel_pytree(qdot)
+
+    @jax.jit
+    def residual_of_solve(flat_q, flat_qd):
+        q_, qdot_ = unravel(flat_q), unravel(flat_qd)
+        qdd = sub.accelerations(q_, qdot_, reel_acceleration=jnp.array([0.7]))
+
+        def T(fq, fqd):
+            return sub.kinetic_energy(unravel(fq), unravel(fqd))
+
+        mass = jax.jacfwd(lambda fqd: jax.grad(T, argnums=1)(flat_q, fqd))(flat_qd)
+        _, dp = jax.jvp(lambda fq: jax.grad(T, argnums=1)(fq, flat_qd), (flat_q,), (flat_qd,))
+        rhs = -dp + jax.grad(T, argnums=0)(flat_q, flat_qd)
+        rhs = rhs - jax.grad(lambda fq: sub.potential_energy(unravel(fq)))(flat_q)
+        rhs = rhs - jax.grad(lambda fqd: sub.dissipation_function(q_, unravel(fqd)))(flat_qd)
+        rhs = rhs.at[-1].add(sub.buffer.generalized_force(qdot_.u))
+        return qdd.s[0], mass @ jax.flatten_util.ravel_pytree(qdd)[0] - rhs, rhs
+
+    reel, residual, rhs = residual_of_solve(flat_q, flat_qd)
+    assert float(reel) == pytest.approx(0.7, rel=1e-12)
+    active_row = q.r.size  # first entry of s in the ravel order (r, s, u)
+    free = np.ones(residual.shape[0], bool)
+    free[active_row] = False
+    assert float(jnp.max(jnp.abs(residual[free]))) < 1e-9 * float(jnp.max(jnp.abs(rhs)))

@@ -608,3 +608,76 @@ def test_bad_geometry_raises_naming_the_argument(law):
         capsule_contact(law, HOOK_P0, HOOK_P1, -0.1, ZERO, ZERO, ZERO, ZERO, CABLE_R, ZERO, ZERO)
     with pytest.raises(ValueError, match="cable_p1"):
         capsule_contact(law, HOOK_P0, HOOK_P1, HOOK_R, ZERO, ZERO, ZERO, jnp.zeros(2), CABLE_R, ZERO, ZERO)
+
+
+# ---------------------------------------------------------------------------------------------
+# The landing scene's cable set: contact and cable accelerations against a per-pair reference
+# ---------------------------------------------------------------------------------------------
+
+
+def test_cable_set_response_matches_per_pair_autodiff_reference():
+    """``AleCables.respond`` (shared kinematics, closed-form cable forces, O(n) solve) against an
+    independent assembly: nodes by ``jax.jvp`` of the nodal map, the contact of each (hook capsule,
+    span element) pair summed in Python, generalised forces by ``jax.grad`` of the contact power and
+    the accelerations by autodiff of the cable's T, V, D with a dense mass matrix. The state is the
+    design capture with the hooks 5 mm into the cables, moving, and the cable nodes moving."""
+    from jax.flatten_util import ravel_pytree
+
+    from jaxcable.arresting.cable_sets import HookPoints
+    from jaxcable.arresting.passive import passive_landing_scene
+
+    scene = passive_landing_scene("ale", t_end_s=0.1)
+    y = scene.initial_state()
+    y = eqx.tree_at(lambda s: s.rocket.r, y, y.rocket.r - jnp.array([0.0, 0.0, 0.005]))
+    rng = np.random.default_rng(0)
+    flat, unravel = ravel_pytree(y.cables.qdot)
+    y = eqx.tree_at(lambda s: s.cables.qdot, y, unravel(jnp.asarray(rng.normal(size=flat.shape))))
+    cables = scene.cables
+    hooks = scene.hooks(y.rocket)
+    f_hooks, dcables, aux = eqx.filter_jit(lambda c, s, h: c.respond(s, h))(cables, y.cables, hooks)
+
+    lo, hi = cables.span_slice
+
+    @eqx.filter_jit
+    def reference(sub, q, qdot, hooks: HookPoints):
+        (r, s), (v, sd) = jax.jvp(sub.route.nodes, (q,), (qdot,))
+        tangent = (r[1:] - r[:-1]) / (s[1:] - s[:-1])[:, None]
+        a1, a2 = v[:-1] - tangent * sd[:-1, None], v[1:] - tangent * sd[1:, None]
+        element_forces = jnp.zeros((r.shape[0] - 1, 2, 3))
+        f_hook = jnp.zeros((4, 3, 3))
+        normal = jnp.zeros(4)
+        for h in range(4):
+            for c, (i0, i1) in enumerate(((0, 1), (1, 2))):  # arm, barb
+                res = jax.vmap(capsule_contact, in_axes=(None,) * 6 + (0, 0, None, 0, 0))(
+                    cables.contact, hooks.positions[h, i0], hooks.positions[h, i1], cables.hook_radius_m,
+                    hooks.velocities[h, i0], hooks.velocities[h, i1], r[lo:hi], r[lo + 1 : hi + 1],
+                    cables.cable_radius_m, a1[lo:hi], a2[lo:hi],
+                )  # every span element
+                element_forces = element_forces.at[lo:hi].add(res.force_on_cable_nodes)
+                on_hook = jnp.sum(res.force_on_hook_points, axis=0)
+                f_hook = f_hook.at[h, i0].add(on_hook[0]).at[h, i1].add(on_hook[1])
+                normal = normal.at[h].add(jnp.sum(res.normal_force))
+
+        def power(rates):
+            (r_, s_), (v_, sd_) = jax.jvp(sub.route.nodes, (q,), (rates,))
+            t_ = (r_[1:] - r_[:-1]) / (s_[1:] - s_[:-1])[:, None]
+            b1, b2 = v_[:-1] - t_ * sd_[:-1, None], v_[1:] - t_ * sd_[1:, None]
+            return jnp.sum(element_forces[:, 0] * b1) + jnp.sum(element_forces[:, 1] * b2)
+
+        generalised = jax.grad(power)(jax.tree_util.tree_map(jnp.zeros_like, q))
+        return sub._accelerations_autodiff(q, qdot, generalised), f_hook, normal
+
+    f_hook_total = jnp.zeros((4, 3, 3))
+    normal_total = jnp.zeros(4)
+    for k in range(4):
+        pick = lambda tree: jax.tree_util.tree_map(lambda x: x[k], tree)  # noqa: E731
+        sub, q, qdot = pick(cables.subsystems), pick(y.cables.q), pick(y.cables.qdot)
+        qdd, f_hook, normal = reference(sub, q, qdot, hooks)
+        want = ravel_pytree(qdd)[0]
+        got = ravel_pytree(jax.tree_util.tree_map(lambda x: x[k], dcables.qdot))[0]
+        np.testing.assert_allclose(np.asarray(got), np.asarray(want), rtol=0, atol=1e-9 * float(jnp.max(jnp.abs(want))))
+        f_hook_total, normal_total = f_hook_total + f_hook, normal_total + normal
+    assert float(jnp.min(normal_total)) > 1e4  # every hook is in contact
+    scale = float(jnp.max(jnp.abs(f_hook_total)))
+    np.testing.assert_allclose(np.asarray(f_hooks), np.asarray(f_hook_total), rtol=0, atol=1e-12 * scale)
+    np.testing.assert_allclose(np.asarray(aux["hook_normal_force_N"]), np.asarray(normal_total), rtol=1e-12)
