@@ -1,0 +1,994 @@
+r"""Gradient-based design of the buffer devices over a quasi-Monte Carlo batch of captures.
+
+Arresting-cable paper, section II.B (the 1-DOF design: counterweight mass ``m_w`` and brake friction
+``F_f`` through the groups ``m_t_bar``, ``F_t_bar`` of eqs 15-24) and section IV (success criteria
+``z_max < 10 m``, ``a_max < 5 g``, ``sigma_max < 800 MPa``; Table 8 captured-state ranges). The paper
+picks ``m_w`` and ``F_f`` from the 1-DOF model (vertical, central capture, rigid cables) and then
+checks them by Monte Carlo. Here the same two numbers (and, once the two-phase scene exists, the
+PD gain ``a_p``) are optimised directly on the criteria of a batch of deviated captures simulated at
+a chosen fidelity (``rigid`` by default), with gradients through the diffrax solve.
+
+Pieces
+------
+* :class:`DesignSpace`: which variables, their bounds, and the unconstrained reparametrisation the
+  optimisers work in (a scaled logistic: ``x = lo + (hi - lo) sigmoid(u)``; every ``u`` is a design
+  inside the bounds, and the bounds are reached only as ``|u| -> inf``).
+* :class:`ObjectiveWeights`: the weights of the objective's terms (arrays: sweepable).
+* :class:`DesignProblem`: the fixed QMC batch of captures, the fixed parts of the scene, the limits,
+  widths and weights; :func:`design_problem` builds one from Table 8 samples.
+* :func:`objective` (pure) and its jitted entry points, one ``filter_jit`` each:
+  :func:`objective_value` (forward), :func:`objective_and_grad` (value and gradient) and
+  :func:`batch_criteria` (per-case smooth and hard criteria at a physical design).
+* :func:`optimise` (optax, adam by default) and :func:`nelder_mead` (scipy, derivative-free
+  baseline on the same reparametrisation and objective); both return a :class:`DesignHistory`.
+* :func:`cvar` (exact, sort-based) and :func:`smooth_cvar` (sort-free, smooth).
+* :func:`design_main`: the ``jaxcable design`` command line.
+
+The objective
+-------------
+Per capture ``j`` the smooth criteria ``c_ij`` (``i`` = z, a, sigma) are the soft maxima over the
+saved history of :func:`jaxcable.arresting.passive.smooth_landing_outputs`; normalised by their
+limits ``L_i`` (10 m, 5 g, 800 MPa), ``r_ij = c_ij / L_i`` (``r < 1``: criterion met; the *margin*
+is ``1 - r``). With weights ``w`` (:class:`ObjectiveWeights`)::
+
+    J(x) = w_expected * E_j[ sum_i w_criteria_i r_ij ]                  expected cost
+         + w_tail     * CVaR_alpha( r_tail,j )                           tail risk
+         + sum_i w_penalty_i * E_j[ max(0, r_ij - 1 + margin)^2 ]        violation penalties
+         + sum_k w_design_k * x_k / upper_k                              design cost (default 0)
+
+* The *expected cost* is the batch mean of a weighted mix of the three normalised criteria (default
+  equal thirds): it rewards margin on every criterion, i.e. a gentler, shorter, less loaded arrest.
+* The *tail risk* is the conditional value at risk of one normalised criterion over the batch
+  (default ``a_max``, the binding one at the rigid level; ``"worst"`` takes each case's largest
+  normalised criterion): the mean of the worst ``(1 - alpha)`` fraction of the cases. The default
+  form is :func:`smooth_cvar` (Rockafellar-Uryasev with a softplus, no sort); ``tail_form="exact"``
+  uses :func:`cvar`.
+* The *penalties* are squared hinges (C^1) on the batch mean, so every violating case pulls.
+* The *design cost* is a linear cost of the variables relative to their upper bounds (e.g. the
+  counterweight's mass); off by default.
+
+The expected cost and the penalties pull in different directions (a shorter stroke needs more
+friction, which raises the deceleration and the cable load); the weights set the compromise.
+
+Gradients
+---------
+:func:`objective_and_grad` differentiates through ``diffrax.diffeqsolve``. Two modes, both checked
+against central differences in float64 (``tests/test_design.py``) and agreeing to 1e-5:
+
+* ``gradient="forward"`` (default): ``diffrax.ForwardMode`` + ``jax.jacfwd``, the k tangents carried
+  along the same adaptive solve. Chosen for its compile time (15-35 s against 35-65 s for reverse
+  mode on the shared 2-core machine) and because it is the cheaper mode for small batches: gradient
+  / forward cost 2.4x at n = 8 against 2.8x for reverse mode. It scales worse with the batch:
+  3.6-5.6x at n = 32 (several runs; the machine's load varies).
+* ``gradient="reverse"``: ``RecursiveCheckpointAdjoint`` + ``jax.grad``: 3.1-3.5x at n = 32;
+  ``checkpoints`` sets its checkpoint count (64 changed nothing measurable). Prefer it for batches
+  of 32 and more. ``BacksolveAdjoint`` cannot be used: :func:`jaxcable.simulate` saves its probes
+  with ``SubSaveAt``, which diffrax's backsolve adjoint does not support.
+
+The goal of <= 3x is met at n = 8 (forward mode) and missed by 10-20 % at n = 32 (reverse mode).
+The gradient is that of the discrete adaptive solve: at the rigid level's rtol = 1e-6 it is 0.6 %
+from the converged gradient (rtol 1e-8: 0.07 %), which is ample for the optimiser but not for a
+finite-difference check (the tests use rtol 1e-8). Measurements: ``experiments/bench_design.py``.
+
+Readings, corrections and measurements
+--------------------------------------
+* **Which "paper design".** :func:`paper_start` takes the paper's section II.B design through the
+  1-DOF module: ``m_t_bar = 2`` and ``F_t_bar`` from eq 19 (unrounded, 15.7789) with eq 15 inverted
+  for ``m_r = 25 t``: ``m_w = 1388.9 kg``, ``F_f = 3.0886e5 N`` (see :mod:`jaxcable.arresting.one_dof`
+  for why this differs from Table 1's 0.92 t / 3.13e5 N). The rocket of the simulated scenes weighs
+  25.18 t (hooks included); the design is not rescaled for the hooks.
+* **The criteria's acceleration** is the magnitude of the centre of mass's acceleration (kinematic,
+  gravity included in the force balance), as in :func:`~jaxcable.arresting.passive.landing_outputs`.
+* **Soft maxima are upper bounds.** ``width * logsumexp(v / width) >= max(v)``, so a design whose
+  smooth criteria meet the limits meets the hard ones. Their bias (soft - hard) grows with the number
+  of samples within a few widths of the maximum, ``width * log(k)``: it is largest for ``z_max``,
+  whose history sits on a plateau after the stop. Measured at the paper design over 64 Table 8
+  captures of scenario I (rigid, 1.2 s, 401 samples): with the default widths (0.05 m, 0.05 g,
+  5 MPa) the mean bias is 0.173 m on z_max, 0.079 g on a_max, 7.7 MPa on sigma_max (1.7 %, 1.6 %,
+  1.0 % of the limits; range over the cases 0.16-0.20 m, 0.055-0.11 g, 6.4-10.6 MPa); half the
+  widths give 0.077 m, 0.030 g, 3.0 MPa. The penalties therefore act about 1-2 % inside the hard
+  limits; the bias of z is nearly constant over the batch (0.16-0.20 m), so it shifts the optimum
+  rather than distorting the objective's shape.
+* **Can m_w and F_f alone meet the criteria over Table 8?** At the rigid level with the default
+  cable damping (1e-5 s): no. On a grid m_w = 300-4500 kg x F_f = 2.2e5-4.4e5 N over the 16-case
+  optimisation batch, no design meets all three criteria in more than 25 % of the cases, and the
+  lowest worst-case a_max among designs whose worst-case z_max < 10 m is 7.0 g (m_w = 300 kg,
+  F_f = 3.4e5 N). A scratch grid down to m_w = 100 kg (17 cases, central one included) gave at best
+  5.9 g with z_max = 10.08 m. What limits it: the stroke limit fixes the friction group (eq 19:
+  F_t_bar ~ 15.8, a bit more for elastic cables), and with that friction the deceleration peaks of
+  the off-centre, tilted captures and of the cable-counterweight oscillation (the README's
+  sensitivity table) stay above 5 g; a lighter counterweight lowers them (less oscillating mass),
+  so every optimiser ends at the lower bound of m_w and trades stroke against deceleration. From
+  the paper design (worst z / a / sigma = 10.0 m / 9.0 g / 937 MPa over an independent 64-case
+  batch, 6 % success) adam reaches about 320-380 kg and 2.6e5-2.7e5 N: 11.2-11.4 m / 6.5 g /
+  550-565 MPa, 9-16 % success (``experiments/results/bench_design.md``). The objective does not
+  maximise the success rate (a step function); the grid's best success rate is 25 %.
+* **Stiffness at small m_w.** The brake's time constant ``m_w v_width / F_f`` (see
+  :mod:`jaxcable.arresting.buffer`) shrinks with m_w; an explicit solver's step count grows like
+  F_f / m_w (rigid, 1.2 s, worst of 16 cases at F_f = 3e5 N: 1000 steps at 1.4 t, 4200 at 300 kg;
+  16000 at 100 kg and 3.6e5 N, where 20000 steps did not always suffice). The default lower
+  bound of m_w is 300 kg to keep batches affordable; a batch under ``vmap`` runs in lockstep, so
+  its cost is set by its slowest case.
+* **a_p** (the PD law's proportional gain [1/s], eq 4 ``v_p = a_p e + e_dot``; eq 11 asks
+  ``a_p >= 20 / t_c``; Table 4: 2, 5, 6) acts only in the active-tracking phase: it is accepted as a
+  variable name, and a problem using it needs ``phase="full"`` (the two-phase scene), which is not
+  wired here yet; both raise a clear error. The plumbing (bounds, reparametrisation, the setter
+  table ``_PASSIVE_SETTERS`` to be joined by a two-phase one) is in place.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+
+import diffrax
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ._validation import check_choice, check_finite, check_positive, check_range
+from .arresting.buffer import BufferDevice
+from .arresting.landing import LEVEL_DEFAULTS
+from .arresting.layout import ArrestingLayout, CaptureState
+from .arresting.passive import (
+    FIDELITY_LEVELS,
+    LandingCriteria,
+    SmoothingWidths,
+    passive_landing_scene,
+    smooth_landing_outputs,
+)
+
+__all__ = [
+    "CRITERIA",
+    "DEFAULT_BOUNDS",
+    "DESIGN_VARIABLES",
+    "DesignHistory",
+    "DesignProblem",
+    "DesignSpace",
+    "ObjectiveWeights",
+    "batch_criteria",
+    "criteria_summary",
+    "cvar",
+    "design_main",
+    "design_problem",
+    "nelder_mead",
+    "objective",
+    "objective_terms",
+    "objective_and_grad",
+    "objective_value",
+    "optimise",
+    "paper_start",
+    "smooth_cvar",
+]
+
+DESIGN_VARIABLES = {
+    # name: (description [unit], phase it needs)
+    "m_w": ("counterweight mass of one buffer device [kg]", "passive"),
+    "F_f": ("sliding friction force of one brake [N]", "passive"),
+    "a_p": ("proportional gain a_p of the PD law, eq 4 [1/s]", "full"),
+}
+"""The design variables one may choose, with what they are and the phase whose scene they act in."""
+
+DEFAULT_BOUNDS = {
+    # m_w: lower bound by cost, not physics (steps ~ 1/m_w, module docstring); upper 3.6x the paper
+    "m_w": (300.0, 5000.0),
+    # F_f: F_t_bar from 7.4 to 20 at m_w = 300-5000 kg (the stop needs F_t_bar > 1; eq 19: 15.8)
+    "F_f": (2.0e5, 5.0e5),
+    # a_p: Table 4 uses 2, 5, 6; eq 11 asks a_p >= 20 / t_c (2 to 4 1/s for t_c = 10 to 5 s)
+    "a_p": (0.5, 10.0),
+}
+"""Default bounds ``(lower, upper)`` per variable, in the variable's unit."""
+
+CRITERIA = ("z_max_m", "a_max_g", "sigma_max_mpa")
+"""The three success criteria of section IV.A, in the order used by every (3,) weight array."""
+
+TAIL_CRITERIA = ("z_max", "a_max", "sigma_max", "worst")
+GRADIENT_MODES = ("forward", "reverse")
+PHASES = ("passive", "full")
+
+
+def _float_array(value):
+    return jnp.asarray(value, dtype=float)
+
+
+def _concrete(value):
+    if isinstance(value, jax.core.Tracer):
+        return None
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        return None
+
+
+# ------------------------------------------------------------------------------------------------
+# Design space and reparametrisation
+# ------------------------------------------------------------------------------------------------
+
+
+class DesignSpace(eqx.Module):
+    """The chosen design variables, their bounds, and the scaled-logistic reparametrisation.
+
+    ``x = lower + (upper - lower) * sigmoid(u)`` maps any ``u`` in R^k into the open box; the
+    optimisers work in ``u``. Build one with :meth:`from_names`.
+    """
+
+    names: tuple = eqx.field(static=True)
+    """names of the variables, a subset of ``DESIGN_VARIABLES`` in the user's order"""
+    lower: jax.Array = eqx.field(converter=_float_array)
+    """lower bound of each variable, in its unit (kg, N, 1/s), shape (k,)"""
+    upper: jax.Array = eqx.field(converter=_float_array)
+    """upper bound of each variable, in its unit, shape (k,)"""
+
+    def __check_init__(self):
+        if len(self.names) == 0:
+            raise ValueError("names must name at least one design variable, got none")
+        for name in self.names:
+            check_choice("design variable", name, DESIGN_VARIABLES)
+        if len(set(self.names)) != len(self.names):
+            raise ValueError(f"names has a repeated design variable: {self.names}")
+        k = len(self.names)
+        if self.lower.shape != (k,) or self.upper.shape != (k,):
+            raise ValueError(
+                f"lower and upper must have shape ({k},) for names {self.names}, "
+                f"got {self.lower.shape} and {self.upper.shape}"
+            )
+        lo, hi = _concrete(self.lower), _concrete(self.upper)
+        if lo is None or hi is None:
+            return
+        for i, name in enumerate(self.names):
+            check_finite(f"lower bound of {name}", lo[i])
+            check_finite(f"upper bound of {name}", hi[i])
+            if not lo[i] < hi[i]:
+                raise ValueError(
+                    f"bounds of {name} are inverted or empty: lower = {lo[i]:g} must be < upper = {hi[i]:g}"
+                )
+            if name == "F_f":
+                check_positive("lower bound of F_f [N]", lo[i], allow_zero=True)
+            else:
+                check_positive(f"lower bound of {name}", lo[i])
+
+    @classmethod
+    def from_names(cls, names, bounds: dict | None = None) -> "DesignSpace":
+        """``names``: a sequence or a comma-separated string (``"m_w,F_f"``); ``bounds``:
+        ``{name: (lower, upper)}`` overriding ``DEFAULT_BOUNDS`` for some names."""
+        if isinstance(names, str):
+            names = [n.strip() for n in names.split(",") if n.strip()]
+        names = tuple(names)
+        bounds = {} if bounds is None else dict(bounds)
+        for name in bounds:
+            check_choice("design variable in bounds", name, DESIGN_VARIABLES)
+        for name in names:
+            check_choice("design variable", name, DESIGN_VARIABLES)
+        lo = [float(bounds.get(n, DEFAULT_BOUNDS[n])[0]) for n in names]
+        hi = [float(bounds.get(n, DEFAULT_BOUNDS[n])[1]) for n in names]
+        return cls(names=names, lower=np.array(lo), upper=np.array(hi))
+
+    @property
+    def size(self) -> int:
+        return len(self.names)
+
+    def to_physical(self, u) -> jax.Array:
+        """Unconstrained ``u`` (k,) -> design ``x`` (k,) in the bounds, in each variable's unit."""
+        return self.lower + (self.upper - self.lower) * jax.nn.sigmoid(u)
+
+    def to_unconstrained(self, x) -> jax.Array:
+        """Design ``x`` (k,) strictly inside the bounds -> ``u`` (k,) (the inverse of
+        :meth:`to_physical`). Concrete values outside the open box raise an error naming the variable."""
+        x = jnp.asarray(x, dtype=float)
+        self.check_design(x)
+        p = (x - self.lower) / (self.upper - self.lower)
+        return jnp.log(p) - jnp.log1p(-p)
+
+    def check_design(self, x):
+        """Raise a clear error if a concrete design is not (k,) and strictly inside the bounds."""
+        xv, lo, hi = _concrete(x), _concrete(self.lower), _concrete(self.upper)
+        if xv is None or lo is None or hi is None:
+            return
+        if xv.shape != (self.size,):
+            raise ValueError(f"a design for {self.names} must have shape ({self.size},), got {xv.shape}")
+        for i, name in enumerate(self.names):
+            check_range(name, float(xv[i]), float(lo[i]), float(hi[i]))
+
+    def as_dict(self, x) -> dict:
+        """``{name: float}`` of a concrete design."""
+        return {n: float(v) for n, v in zip(self.names, np.asarray(x, dtype=float))}
+
+    def from_dict(self, values: dict) -> jax.Array:
+        """A design (k,) from ``{name: value}`` naming every variable of the space."""
+        missing = [n for n in self.names if n not in values]
+        if missing:
+            raise ValueError(f"design values lack {missing} (space: {self.names})")
+        extra = [n for n in values if n not in self.names]
+        if extra:
+            raise ValueError(f"design values name {extra}, which are not in the space {self.names}")
+        x = jnp.asarray([float(values[n]) for n in self.names])
+        self.check_design(x)
+        return x
+
+
+# ------------------------------------------------------------------------------------------------
+# Tail risk
+# ------------------------------------------------------------------------------------------------
+
+
+def _check_alpha(alpha):
+    a = _concrete(alpha)
+    if a is not None and not (0.0 <= float(a) < 1.0):
+        raise ValueError(f"alpha must be in [0, 1), got {alpha!r}")
+
+
+def cvar(values, alpha) -> jax.Array:
+    """Exact conditional value at risk of an empirical distribution (equal weights): the mean of
+    the worst ``(1 - alpha)`` fraction of ``values`` (n,), with the boundary sample weighted by the
+    fractional part of ``k = n (1 - alpha)``. ``alpha`` in [0, 1): 0 gives the mean, values near 1
+    the maximum. Equal to Rockafellar-Uryasev's ``min_t t + E[(X - t)_+] / (1 - alpha)``.
+    Continuous and piecewise linear in ``values`` (differentiable almost everywhere through the sort).
+    """
+    _check_alpha(alpha)
+    values = jnp.asarray(values)
+    n = values.shape[0]
+    k = n * (1.0 - alpha)
+    desc = -jnp.sort(-values)
+    # weight of the i-th largest sample: min(1, max(0, k - i)), summing to k
+    weights = jnp.clip(k - jnp.arange(n), 0.0, 1.0)
+    return jnp.sum(weights * desc) / k
+
+
+def smooth_cvar(values, alpha, width) -> jax.Array:
+    """Sort-free smooth CVaR: ``min_t t + E[width softplus((X - t) / width)] / (1 - alpha)``.
+
+    The softplus replaces the hinge of Rockafellar-Uryasev's formula, so the result lies in
+    ``[cvar, cvar + width log 2 / (1 - alpha)]`` (softplus >= hinge, and exceeds it by at most
+    ``log 2``). The minimiser ``t*`` solves ``E[sigmoid((X - t*) / width)] = 1 - alpha``, a monotone
+    equation solved by bisection; the gradient w.r.t. ``values`` is
+    ``sigmoid((X - t*) / width) / (n (1 - alpha))`` by the envelope theorem (``d/dt = 0`` at
+    ``t*``), so ``t*`` is held fixed (``stop_gradient``) and the bisection is not differentiated.
+    ``values`` (n,), ``alpha`` in [0, 1), ``width`` > 0 in the units of ``values``.
+    """
+    _check_alpha(alpha)
+    check_positive("width", width)
+    values = jnp.asarray(values)
+    x = jax.lax.stop_gradient(values)
+    target = 1.0 - alpha
+
+    def excess(t):
+        return jnp.mean(jax.nn.sigmoid((x - t) / width)) - target
+
+    # bracket: 40 widths beyond the extremes, where every sigmoid is within 4e-18 of 0 or 1
+    lo = jnp.min(x) - 40.0 * width
+    hi = jnp.max(x) + 40.0 * width
+
+    def body(_, bracket):
+        a, b = bracket
+        m = 0.5 * (a + b)
+        above = excess(m) > 0.0  # root is to the right of m
+        return jnp.where(above, m, a), jnp.where(above, b, m)
+
+    # 80 halvings: (hi - lo) 2^-80 is far below float64 resolution of t
+    a, b = jax.lax.fori_loop(0, 80, body, (lo, hi))
+    t = jax.lax.stop_gradient(0.5 * (a + b))
+    return t + jnp.mean(width * jax.nn.softplus((values - t) / width)) / target
+
+
+# ------------------------------------------------------------------------------------------------
+# Objective weights and the problem
+# ------------------------------------------------------------------------------------------------
+
+
+class ObjectiveWeights(eqx.Module):
+    """Weights and shape parameters of the objective (module docstring). Arrays: sweepable and
+    differentiable. The (3,) arrays follow ``CRITERIA`` = (z_max, a_max, sigma_max)."""
+
+    expected: jax.Array = eqx.field(converter=_float_array, default=1.0)
+    """weight of the expected cost [-], shape ()"""
+    criteria: jax.Array = eqx.field(converter=_float_array, default=(1.0 / 3, 1.0 / 3, 1.0 / 3))
+    """weights of the normalised criteria inside the expected cost [-], shape (3,)"""
+    tail: jax.Array = eqx.field(converter=_float_array, default=1.0)
+    """weight of the tail risk (CVaR) [-], shape ()"""
+    alpha: jax.Array = eqx.field(converter=_float_array, default=0.75)
+    """CVaR level: the tail is the worst (1 - alpha) fraction of the batch [-], shape (), in [0, 1)"""
+    tail_width: jax.Array = eqx.field(converter=_float_array, default=0.01)
+    """softplus width of :func:`smooth_cvar`, in normalised criterion units (0.01 = 1 % of a
+    limit) [-], shape ()"""
+    penalty: jax.Array = eqx.field(converter=_float_array, default=(100.0, 100.0, 100.0))
+    """weights of the squared violation penalties [-], shape (3,). 100: a 10 % violation in every
+    case costs 1, as much as the whole expected cost at the limits, so violations dominate (with 10,
+    the optimiser traded a 19 % stroke violation for lower decelerations; bench_design.md)"""
+    margin: jax.Array = eqx.field(converter=_float_array, default=0.0)
+    """fractional margin the penalties demand below each limit (0.02: r < 0.98) [-], shape ()"""
+    design_cost: jax.Array | None = None
+    """weight of each variable's ``x_k / upper_k`` in the design cost [-], shape (k,); None: 0"""
+    tail_criterion: str = eqx.field(static=True, default="a_max")
+    """which normalised criterion the CVaR is taken of: z_max, a_max, sigma_max or worst"""
+    tail_form: str = eqx.field(static=True, default="smooth")
+    """``smooth`` (:func:`smooth_cvar`) or ``exact`` (:func:`cvar`)"""
+
+    def __check_init__(self):
+        check_choice("tail_criterion", self.tail_criterion, TAIL_CRITERIA)
+        check_choice("tail_form", self.tail_form, ("smooth", "exact"))
+        for name in ("expected", "tail", "margin"):
+            check_positive(name, getattr(self, name), allow_zero=True)
+        for name in ("criteria", "penalty"):
+            v = getattr(self, name)
+            if v.shape != (3,):
+                raise ValueError(f"{name} must have shape (3,) (z, a, sigma), got {v.shape}")
+            check_positive(name, v, allow_zero=True)
+        check_positive("tail_width", self.tail_width)
+        _check_alpha(self.alpha)
+        if self.design_cost is not None:
+            check_positive("design_cost", self.design_cost, allow_zero=True)
+
+
+class DesignProblem(eqx.Module):
+    """Everything the objective depends on except the design: the variables and bounds, the fixed
+    QMC batch of captures, the fixed parts of the scene, the limits, widths, weights and the solver
+    settings. Build one with :func:`design_problem`."""
+
+    space: DesignSpace
+    captures: CaptureState
+    """the batch: every field an array of shape (n,)"""
+    buffer: BufferDevice
+    """fields not designed (transfer rate, brake smoothing width) and the defaults of the rest"""
+    layout: ArrestingLayout
+    weights: ObjectiveWeights = ObjectiveWeights()
+    limits: LandingCriteria = LandingCriteria()
+    widths: SmoothingWidths = SmoothingWidths()
+    fidelity: str = eqx.field(static=True, default="rigid")
+    phase: str = eqx.field(static=True, default="passive")
+    t_end_s: float = eqx.field(static=True, default=1.2)
+    """simulated time after capture [s]: covers the stop (~0.75 s centrally) and the first rebound"""
+    rtol: float = eqx.field(static=True, default=1e-6)
+    atol: float = eqx.field(static=True, default=1e-6)
+    max_steps: int = eqx.field(static=True, default=50_000)
+    gradient: str = eqx.field(static=True, default="forward")
+    """``forward`` (ForwardMode + jacfwd) or ``reverse`` (RecursiveCheckpointAdjoint + grad)"""
+    checkpoints: int | None = eqx.field(static=True, default=None)
+    """checkpoints of RecursiveCheckpointAdjoint in reverse mode (None: diffrax's default)"""
+
+    def __check_init__(self):
+        check_choice("fidelity", self.fidelity, tuple(k for k in FIDELITY_LEVELS if k != "1dof"))
+        check_choice("phase", self.phase, PHASES)
+        check_choice("gradient", self.gradient, GRADIENT_MODES)
+        check_positive("t_end_s", self.t_end_s)
+        check_positive("rtol", self.rtol)
+        check_positive("atol", self.atol)
+        for name in self.space.names:
+            needs = DESIGN_VARIABLES[name][1]
+            if needs == "full" and self.phase != "full":
+                raise ValueError(
+                    f"design variable {name!r} ({DESIGN_VARIABLES[name][0]}) acts in the active-tracking "
+                    f"phase: it needs phase='full' (the two-phase scene), not available yet; got phase={self.phase!r}"
+                )
+        if self.phase == "full":
+            raise NotImplementedError(
+                "phase='full' (the two-phase active-tracking + passive scene) is not available yet; use phase='passive'"
+            )
+        if self.weights.design_cost is not None and self.weights.design_cost.shape != (self.space.size,):
+            raise ValueError(
+                f"weights.design_cost must have shape ({self.space.size},) for {self.space.names}, "
+                f"got {self.weights.design_cost.shape}"
+            )
+
+    @property
+    def n_cases(self) -> int:
+        return int(self.captures.x_m.shape[0])
+
+
+def design_problem(
+    variables="m_w,F_f",
+    n: int = 64,
+    scenario: str = "I",
+    fidelity: str = "rigid",
+    seed: int = 0,
+    *,
+    bounds: dict | None = None,
+    weights: ObjectiveWeights | None = None,
+    phase: str = "passive",
+    buffer: BufferDevice | None = None,
+    layout: ArrestingLayout | None = None,
+    **settings,
+) -> DesignProblem:
+    """A design problem over ``n`` Halton captures of ``scenario`` (Table 8 ranges for the passive
+    phase, :func:`jaxcable.arresting.uncertainty.halton_samples`), deterministic for ``seed``.
+    ``settings`` go to :class:`DesignProblem` (``t_end_s``, ``rtol``, ``gradient``, ...)."""
+    from .arresting.uncertainty import captures_from_samples, halton_samples
+
+    space = DesignSpace.from_names(variables, bounds)
+    if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, np.integer)) or n < 1:
+        raise ValueError(f"n must be a positive integer (captures in the batch), got {n!r}")
+    check_choice("phase", phase, PHASES)
+    for name in space.names:  # the clear a_p / phase error before any sampling
+        if DESIGN_VARIABLES[name][1] == "full" and phase != "full":
+            raise ValueError(
+                f"design variable {name!r} ({DESIGN_VARIABLES[name][0]}) acts in the active-tracking phase: "
+                f"it needs phase='full' (the two-phase scene), not available yet; got phase={phase!r}"
+            )
+    if phase == "full":
+        raise NotImplementedError(
+            "phase='full' (the two-phase active-tracking + passive scene) is not available yet; use phase='passive'"
+        )
+    captures = captures_from_samples(halton_samples(int(n), scenario=scenario, phase=phase, seed=seed))
+    if fidelity in LEVEL_DEFAULTS:  # the level's measured tolerances unless given
+        settings.setdefault("rtol", LEVEL_DEFAULTS[fidelity][1])
+        settings.setdefault("atol", settings["rtol"])
+    return DesignProblem(
+        space=space,
+        captures=captures,
+        buffer=BufferDevice() if buffer is None else buffer,
+        layout=ArrestingLayout() if layout is None else layout,
+        weights=ObjectiveWeights() if weights is None else weights,
+        fidelity=fidelity,
+        phase=phase,
+        **settings,
+    )
+
+
+def paper_start(problem: DesignProblem) -> jax.Array:
+    """The paper's section II.B design as a point of ``problem.space``: ``m_w``, ``F_f`` of
+    :func:`jaxcable.arresting.one_dof.paper_design` (m_t_bar = 2, F_t_bar of eq 19; 1388.9 kg,
+    3.0886e5 N); a variable other than those takes the middle of its bounds."""
+    from .arresting.one_dof import paper_design
+
+    p = paper_design()
+    known = {"m_w": float(p.m_w), "F_f": float(p.F_f)}
+    sp = problem.space
+    mid = 0.5 * (np.asarray(sp.lower) + np.asarray(sp.upper))
+    return sp.from_dict({n: known.get(n, float(mid[i])) for i, n in enumerate(sp.names)})
+
+
+# ------------------------------------------------------------------------------------------------
+# Simulation of the batch and the objective
+# ------------------------------------------------------------------------------------------------
+
+# How each design variable enters the passive scene (``a_p`` enters the controller of the two-phase
+# scene; DesignProblem refuses it before it gets here).
+_PASSIVE_SETTERS = {
+    "m_w": lambda buffer, v: eqx.tree_at(lambda b: b.counterweight_mass_kg, buffer, v),
+    "F_f": lambda buffer, v: eqx.tree_at(lambda b: b.brake_force_N, buffer, v),
+}
+
+
+def _scene(problem: DesignProblem, capture: CaptureState, x):
+    buffer = problem.buffer
+    for i, name in enumerate(problem.space.names):
+        if name not in _PASSIVE_SETTERS:  # pragma: no cover - refused by DesignProblem
+            raise NotImplementedError(f"design variable {name!r} needs phase='full', not available yet")
+        buffer = _PASSIVE_SETTERS[name](buffer, x[i])
+    return passive_landing_scene(
+        problem.fidelity, capture, problem.layout, buffer, t_end_s=problem.t_end_s
+    )
+
+
+def _one_case(problem: DesignProblem, capture, x, adjoint):
+    """One capture: smooth and hard criteria, solver status and steps (scalars)."""
+    from .simulate import simulate
+
+    res = simulate(
+        _scene(problem, capture, x),
+        problem.t_end_s,
+        rtol=problem.rtol,
+        atol=problem.atol,
+        max_steps=problem.max_steps,
+        adjoint=adjoint,
+    )
+    smooth = smooth_landing_outputs(res.ts, res.probes, problem.widths)
+    hard = {k: res.outputs[k] for k in CRITERIA}
+    return dict(smooth=smooth, hard=hard, status=res.status, num_steps=res.num_steps)
+
+
+def _batch(problem: DesignProblem, x, adjoint):
+    # one scene per capture; the batch is a vmap over the capture (physics handles one case)
+    return jax.vmap(lambda c: _one_case(problem, c, x, adjoint))(problem.captures)
+
+
+def _adjoint(problem):
+    if problem.gradient == "forward":
+        return diffrax.ForwardMode()
+    if problem.checkpoints is None:
+        return diffrax.RecursiveCheckpointAdjoint()
+    return diffrax.RecursiveCheckpointAdjoint(checkpoints=problem.checkpoints)
+
+
+def _limits(problem):
+    lim = problem.limits
+    return jnp.array([lim.z_max_m, lim.a_max_g, lim.sigma_max_mpa])
+
+
+def _normalised(problem, criteria):
+    """(n, 3) criteria / limits from a dict of (n,) arrays keyed by ``CRITERIA``."""
+    return jnp.stack([criteria[k] for k in CRITERIA], axis=1) / _limits(problem)
+
+
+def objective_terms(problem: DesignProblem, x, smooth) -> dict:
+    """The objective's terms from the smooth criteria ``smooth`` (dict of (n,) arrays) at design
+    ``x`` (k,): ``expected``, ``tail``, ``penalty``, ``design_cost`` and their weighted ``total``."""
+    w = problem.weights
+    r = _normalised(problem, smooth)  # (n, 3)
+    expected = jnp.mean(r @ w.criteria)
+    tail_values = jnp.max(r, axis=1) if w.tail_criterion == "worst" else r[:, TAIL_CRITERIA.index(w.tail_criterion)]
+    if w.tail_form == "smooth":
+        tail = smooth_cvar(tail_values, w.alpha, w.tail_width)
+    else:
+        tail = cvar(tail_values, w.alpha)
+    violation = jnp.maximum(r - 1.0 + w.margin, 0.0)
+    penalty = jnp.sum(w.penalty * jnp.mean(violation**2, axis=0))
+    if w.design_cost is None:
+        design_cost = jnp.zeros(())
+    else:
+        design_cost = jnp.sum(w.design_cost * x / problem.space.upper)
+    total = w.expected * expected + w.tail * tail + penalty + design_cost
+    return dict(total=total, expected=expected, tail=tail, penalty=penalty, design_cost=design_cost)
+
+
+def objective(problem: DesignProblem, u, adjoint=None):
+    """The objective at unconstrained ``u`` (k,): ``(J, aux)``; ``aux`` holds ``x``, the terms, the
+    per-case ``smooth`` and ``hard`` criteria (dicts of (n,) arrays), ``status`` and ``num_steps``.
+    Pure (no jit): :func:`objective_value` and :func:`objective_and_grad` are the jitted forms."""
+    x = problem.space.to_physical(u)
+    out = _batch(problem, x, adjoint)
+    terms = objective_terms(problem, x, out["smooth"])
+    aux = dict(x=x, terms=terms, **out)
+    return terms["total"], aux
+
+
+@eqx.filter_jit
+def objective_value(problem: DesignProblem, u):
+    """Jitted forward objective: ``(J, aux)`` at unconstrained ``u`` (k,) (see :func:`objective`)."""
+    return objective(problem, u)
+
+
+@eqx.filter_jit
+def objective_and_grad(problem: DesignProblem, u):
+    """Jitted objective and gradient w.r.t. ``u``: ``(J, dJ/du (k,), aux)``.
+
+    ``problem.gradient == "forward"``: ``jax.jacfwd`` with ``diffrax.ForwardMode`` (one solve
+    carries the k tangents); ``"reverse"``: ``jax.grad`` with ``RecursiveCheckpointAdjoint``.
+    ``dJ/dx = dJ/du / (dx/du)`` with ``dx/du = (x - lo)(hi - x) / (hi - lo)``."""
+    adjoint = _adjoint(problem)
+
+    def f(u_):
+        j, aux = objective(problem, u_, adjoint)
+        return j, (j, aux)
+
+    if problem.gradient == "forward":
+        grad, (j, aux) = jax.jacfwd(f, has_aux=True)(u)
+    else:
+        grad, (j, aux) = jax.grad(f, has_aux=True)(u)
+    return j, grad, aux
+
+
+@eqx.filter_jit
+def batch_criteria(problem: DesignProblem, x):
+    """Forward only, at a physical design ``x`` (k,): per-case ``smooth`` and ``hard`` criteria
+    (dicts of (n,) arrays), ``status`` and ``num_steps`` (n,)."""
+    return _batch(problem, jnp.asarray(x, dtype=float), None)
+
+
+def criteria_summary(problem: DesignProblem, aux) -> dict:
+    """JSON-able summary of one batch evaluation (an ``aux`` of :func:`objective` or the output of
+    :func:`batch_criteria`): for ``hard`` and ``smooth`` criteria the worst case and the mean, the
+    worst margin ``1 - c / limit``; per-criterion and overall success rates (hard criteria);
+    solver failures."""
+    lim = dict(zip(CRITERIA, np.asarray(_limits(problem))))
+    out = {}
+    for kind in ("hard", "smooth"):
+        d = {}
+        for k in CRITERIA:
+            v = np.asarray(aux[kind][k], dtype=float)
+            d[k] = dict(worst=float(np.max(v)), mean=float(np.mean(v)), margin=float(1.0 - np.max(v) / lim[k]))
+        out[kind] = d
+    ok = np.stack([np.asarray(aux["hard"][k]) < lim[k] for k in CRITERIA], axis=1)
+    out["success_rate"] = float(np.mean(np.all(ok, axis=1)))
+    out["success_rate_per_criterion"] = {k: float(np.mean(ok[:, i])) for i, k in enumerate(CRITERIA)}
+    status = np.asarray(aux["status"])
+    out["solver_failures"] = int(np.sum(status != 0))
+    out["max_solver_steps"] = int(np.max(np.asarray(aux["num_steps"])))
+    return out
+
+
+# ------------------------------------------------------------------------------------------------
+# Optimisers
+# ------------------------------------------------------------------------------------------------
+
+
+class DesignHistory(eqx.Module):
+    """Record of an optimisation. Row ``i`` is the ``i``-th objective evaluation (adam: one per step
+    plus the final point; Nelder-Mead: every function call). Arrays are NumPy."""
+
+    method: str = eqx.field(static=True)
+    names: tuple = eqx.field(static=True)
+    x: np.ndarray
+    """design at each evaluation, in the variables' units, shape (m, k)"""
+    objective: np.ndarray
+    """objective J, shape (m,)"""
+    grad_norm: np.ndarray
+    """|dJ/du| (NaN for derivative-free methods), shape (m,)"""
+    worst_hard: np.ndarray
+    """worst case over the batch of the hard (z_max [m], a_max [g], sigma_max [MPa]), shape (m, 3)"""
+    success_rate: np.ndarray
+    """fraction of cases meeting all three hard criteria, shape (m,)"""
+    wall_s: np.ndarray
+    """wall time since the start at the end of each evaluation [s] (includes compiling if the
+    jitted function was not warm), shape (m,)"""
+
+    @property
+    def best(self) -> int:
+        """Row of the lowest objective."""
+        return int(np.argmin(self.objective))
+
+    def evaluations_to_reach(self, target: float):
+        """``(evaluations, wall_s)`` when the objective first reached ``<= target``; ``None`` if never."""
+        hit = np.nonzero(self.objective <= target)[0]
+        if hit.size == 0:
+            return None
+        i = int(hit[0])
+        return i + 1, float(self.wall_s[i])
+
+    def as_json(self) -> dict:
+        return dict(
+            method=self.method,
+            names=list(self.names),
+            x=self.x.tolist(),
+            objective=self.objective.tolist(),
+            grad_norm=[None if not np.isfinite(g) else float(g) for g in self.grad_norm],
+            worst_hard=self.worst_hard.tolist(),
+            success_rate=self.success_rate.tolist(),
+            wall_s=self.wall_s.tolist(),
+        )
+
+
+def _worst_hard(aux):
+    return [float(np.max(np.asarray(aux["hard"][k]))) for k in CRITERIA]
+
+
+def _success(problem, aux):
+    lim = np.asarray(_limits(problem))
+    ok = np.stack([np.asarray(aux["hard"][k]) < lim[i] for i, k in enumerate(CRITERIA)], axis=1)
+    return float(np.mean(np.all(ok, axis=1)))
+
+
+def optimise(
+    problem: DesignProblem,
+    x0,
+    steps: int = 50,
+    optimizer=None,
+    learning_rate: float = 0.1,
+    callback=None,
+) -> DesignHistory:
+    """Gradient descent with optax on the unconstrained variables, from design ``x0`` (k,).
+
+    ``optimizer``: an ``optax.GradientTransformation`` (default ``optax.adam(learning_rate)``; a
+    learning rate of 0.1 in ``u`` moves a variable near the middle of its bounds by about 2.5 % of
+    its range per step). The batch is fixed (the problem's), so the run is deterministic. Each step
+    evaluates ``J`` and ``dJ/du`` once (:func:`objective_and_grad`); the final point is evaluated
+    too, so the history has ``steps + 1`` rows. ``callback(i, J, x, aux)`` is called after each."""
+    import optax
+
+    if isinstance(steps, (bool, np.bool_)) or not isinstance(steps, (int, np.integer)) or steps < 0:
+        raise ValueError(f"steps must be a non-negative integer, got {steps!r}")
+    check_positive("learning_rate", learning_rate)
+    opt = optax.adam(learning_rate) if optimizer is None else optimizer
+    u = problem.space.to_unconstrained(x0)
+    state = opt.init(u)
+    rows = dict(x=[], objective=[], grad_norm=[], worst_hard=[], success_rate=[], wall_s=[])
+    t0 = time.perf_counter()
+    for i in range(steps + 1):
+        j, g, aux = objective_and_grad(problem, u)
+        j = float(j)
+        g_np = np.asarray(g)
+        rows["x"].append(np.asarray(aux["x"]))
+        rows["objective"].append(j)
+        rows["grad_norm"].append(float(np.linalg.norm(g_np)))
+        rows["worst_hard"].append(_worst_hard(aux))
+        rows["success_rate"].append(_success(problem, aux))
+        rows["wall_s"].append(time.perf_counter() - t0)
+        if callback is not None:
+            callback(i, j, np.asarray(aux["x"]), aux)
+        if i == steps:
+            break
+        if not np.all(np.isfinite(g_np)) or not np.isfinite(j):
+            raise FloatingPointError(f"non-finite objective or gradient at step {i}: J = {j}, dJ/du = {g_np}")
+        updates, state = opt.update(g, state, u)
+        u = optax.apply_updates(u, updates)
+    return DesignHistory(
+        method="adam" if optimizer is None else "optax",
+        names=problem.space.names,
+        **{k: np.asarray(v, dtype=float) for k, v in rows.items()},
+    )
+
+
+def nelder_mead(
+    problem: DesignProblem,
+    x0,
+    max_evaluations: int = 100,
+    initial_step: float = 0.5,
+    target: float | None = None,
+) -> DesignHistory:
+    """Derivative-free baseline: scipy's Nelder-Mead on the same unconstrained variables and the
+    same objective (:func:`objective_value`, jitted forward). The initial simplex steps each ``u``
+    by ``initial_step`` (scipy's default 5 % of ``u`` is degenerate where ``u`` = 0, the middle of
+    the bounds). Stops after ``max_evaluations`` calls, or as soon as ``J <= target`` if given."""
+    from scipy.optimize import minimize
+
+    check_positive("initial_step", initial_step)
+    u0 = np.asarray(problem.space.to_unconstrained(x0))
+    k = u0.shape[0]
+    simplex = np.vstack([u0] + [u0 + initial_step * np.eye(k)[i] for i in range(k)])
+    rows = dict(x=[], objective=[], grad_norm=[], worst_hard=[], success_rate=[], wall_s=[])
+    t0 = time.perf_counter()
+
+    class _Reached(Exception):
+        pass
+
+    def f(u):
+        if len(rows["objective"]) >= max_evaluations:
+            raise _Reached
+        j, aux = objective_value(problem, jnp.asarray(u))
+        j = float(j)
+        rows["x"].append(np.asarray(aux["x"]))
+        rows["objective"].append(j)
+        rows["grad_norm"].append(np.nan)
+        rows["worst_hard"].append(_worst_hard(aux))
+        rows["success_rate"].append(_success(problem, aux))
+        rows["wall_s"].append(time.perf_counter() - t0)
+        if target is not None and j <= target:
+            raise _Reached
+        return j
+
+    try:
+        minimize(
+            f,
+            u0,
+            method="Nelder-Mead",
+            options=dict(initial_simplex=simplex, maxfev=max_evaluations, xatol=1e-4, fatol=1e-7),
+        )
+    except _Reached:
+        pass
+    return DesignHistory(
+        method="nelder-mead",
+        names=problem.space.names,
+        **{k: np.asarray(v, dtype=float) for k, v in rows.items()},
+    )
+
+
+# ------------------------------------------------------------------------------------------------
+# Command line: jaxcable design
+# ------------------------------------------------------------------------------------------------
+
+
+def _parse_values(text, what):
+    """``"m_w=1000,F_f=3e5"`` -> dict; ``"m_w=300:5000"`` -> dict of (lo, hi) when ``what`` is bounds."""
+    out = {}
+    if not text:
+        return out
+    for item in text.split(","):
+        if "=" not in item:
+            raise ValueError(f"{what}: expected name=value items separated by commas, got {item!r}")
+        name, value = (s.strip() for s in item.split("=", 1))
+        check_choice(f"design variable in {what}", name, DESIGN_VARIABLES)
+        if what == "--bounds":
+            if ":" not in value:
+                raise ValueError(f"--bounds: expected name=lower:upper, got {item!r}")
+            lo, hi = value.split(":", 1)
+            out[name] = (float(lo), float(hi))
+        else:
+            out[name] = float(value)
+    return out
+
+
+def _evaluation_report(problem, x, j, aux):
+    terms = {k: float(v) for k, v in aux["terms"].items()}
+    return dict(design=problem.space.as_dict(x), objective=float(j), terms=terms, criteria=criteria_summary(problem, aux))
+
+
+def _print_report(title, rep):
+    print(title)
+    print("  design     " + ", ".join(f"{k} = {v:.6g}" for k, v in rep["design"].items()))
+    t = rep["terms"]
+    print(
+        f"  objective  {rep['objective']:.5f}  (expected {t['expected']:.4f}, tail {t['tail']:.4f}, "
+        f"penalty {t['penalty']:.4f}, design cost {t['design_cost']:.4f})"
+    )
+    c = rep["criteria"]
+    units = dict(z_max_m="m", a_max_g="g", sigma_max_mpa="MPa")
+    for k in CRITERIA:
+        h, s = c["hard"][k], c["smooth"][k]
+        print(
+            f"  {k:14s} hard worst {h['worst']:8.3f} mean {h['mean']:8.3f} | smooth worst {s['worst']:8.3f} "
+            f"mean {s['mean']:8.3f} {units[k]:3s} (hard success {c['success_rate_per_criterion'][k]:.0%})"
+        )
+    print(f"  success rate (all three, hard) {c['success_rate']:.1%}; solver failures {c['solver_failures']}")
+
+
+def design_main(argv: list[str] | None = None) -> int:
+    """``jaxcable design``: optimise the buffer design over a QMC batch and report before/after.
+
+    Prints the design, the objective and the criteria (hard and smooth; worst case and mean over
+    the batch; success rate) at the start and at the best design found; ``--json`` prints one
+    object instead. Returns 0, or 2 on bad input."""
+    parser = argparse.ArgumentParser(prog="jaxcable design", description=design_main.__doc__.splitlines()[0])
+    parser.add_argument("--vars", default="m_w,F_f", help="design variables, comma-separated: m_w, F_f, a_p (default m_w,F_f)")
+    parser.add_argument("--n", type=int, default=64, help="captures in the QMC batch (default 64)")
+    parser.add_argument("--steps", type=int, default=50, help="optimiser steps (default 50)")
+    parser.add_argument("--scenario", choices=["I", "II", "III"], default="I", help="Table 4 scenario (default I)")
+    parser.add_argument("--fidelity", choices=["rigid", "ale", "full"], default="rigid", help="model level (default rigid; ale/full are slow)")
+    parser.add_argument("--phase", choices=list(PHASES), default="passive", help="passive (from Table 8 captures) or full (two-phase; not available yet)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the scrambled Halton batch (default 0)")
+    parser.add_argument("--lr", type=float, default=0.1, help="adam learning rate in the unconstrained variables (default 0.1)")
+    parser.add_argument("--t-end", type=float, default=1.2, help="time simulated after capture [s] (default 1.2)")
+    parser.add_argument("--start", default="paper", help="'paper' (section II.B: m_t = 2, eq 19) or name=value,... replacing the paper design's values (default paper)")
+    parser.add_argument("--bounds", default="", help="name=lower:upper,... overriding the default bounds")
+    parser.add_argument("--rtol", type=float, default=None, help="relative = absolute solver tolerance (default per level: rigid 1e-6, ale/full 1e-5)")
+    parser.add_argument("--gradient", choices=list(GRADIENT_MODES), default="forward", help="forward or reverse mode (default forward)")
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    args = parser.parse_args(argv)
+    from . import enable_x64
+
+    enable_x64()
+    try:
+        if args.steps < 0:
+            raise ValueError(f"--steps must be >= 0, got {args.steps}")
+        tol = {} if args.rtol is None else dict(rtol=args.rtol, atol=args.rtol)
+        problem = design_problem(
+            args.vars,
+            n=args.n,
+            scenario=args.scenario,
+            fidelity=args.fidelity,
+            seed=args.seed,
+            phase=args.phase,
+            bounds=_parse_values(args.bounds, "--bounds"),
+            t_end_s=args.t_end,
+            gradient=args.gradient,
+            **tol,
+        )
+        x0 = paper_start(problem)
+        if args.start != "paper":  # given values replace the paper design's
+            x0 = problem.space.from_dict({**problem.space.as_dict(x0), **_parse_values(args.start, "--start")})
+    except (ValueError, NotImplementedError) as err:
+        print(f"jaxcable design: error: {err}", file=sys.stderr)
+        return 2
+
+    kept = {}
+
+    def progress(i, j, x, aux):
+        # keep the start's and the best point's batch results for the report (no re-evaluation)
+        if i == 0:
+            kept["start"] = (x, j, aux)
+        if "best" not in kept or j < kept["best"][1]:
+            kept["best"] = (x, j, aux)
+        if not args.json:
+            print(f"  step {i:3d}  J = {j:.5f}  " + ", ".join(f"{k} = {v:.6g}" for k, v in problem.space.as_dict(x).items()), flush=True)
+
+    t0 = time.perf_counter()
+    hist = optimise(problem, x0, steps=args.steps, learning_rate=args.lr, callback=progress)
+    wall = time.perf_counter() - t0
+    before = _evaluation_report(problem, *kept["start"])
+    after = _evaluation_report(problem, *kept["best"])
+    out = dict(
+        variables=list(problem.space.names),
+        bounds={n: [float(lo), float(hi)] for n, lo, hi in zip(problem.space.names, np.asarray(problem.space.lower), np.asarray(problem.space.upper))},
+        n=problem.n_cases,
+        scenario=args.scenario,
+        fidelity=args.fidelity,
+        seed=args.seed,
+        steps=args.steps,
+        t_end_s=args.t_end,
+        rtol=problem.rtol,
+        gradient=args.gradient,
+        before=before,
+        after=after,
+        best_step=hist.best,
+        history=dict(objective=hist.objective.tolist(), success_rate=hist.success_rate.tolist()),
+        wall_s=wall,
+        limits=dict(z_max_m=problem.limits.z_max_m, a_max_g=problem.limits.a_max_g, sigma_max_mpa=problem.limits.sigma_max_mpa),
+    )
+    if args.json:
+        print(json.dumps(out))
+    else:
+        _print_report("before (start design)", before)
+        _print_report(f"after (best of {args.steps} adam steps: step {hist.best})", after)
+        print(f"  wall time {wall:.1f} s (includes compiling)")
+    return 0

@@ -1,0 +1,236 @@
+"""Design optimisation: gradients through the solve vs central differences, reparametrisation,
+CVaR vs brute force, optax steps, the smooth criteria's bounds, bad input, the command line.
+
+One small problem (4 captures of Table 8, rigid level, 1 s, rtol 1e-8) is compiled once by a
+module fixture; every test that simulates re-uses that compiled objective (same static structure).
+"""
+
+import json
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from jaxcable.arresting.passive import SmoothingWidths
+from jaxcable.design import (
+    DesignSpace,
+    ObjectiveWeights,
+    cvar,
+    design_main,
+    design_problem,
+    objective_and_grad,
+    optimise,
+    paper_start,
+    smooth_cvar,
+)
+
+# rtol 1e-8: the gradient of the discrete solve is then within 0.1 % of the converged gradient
+# (at 1e-6 it is 1 % off and central differences are noisy at the percent level)
+SETTINGS = dict(n=4, t_end_s=1.0, rtol=1e-8, atol=1e-8)
+CLI_ARGS = ["--n", "4", "--t-end", "1.0", "--rtol", "1e-8"]
+
+
+@pytest.fixture(scope="module")
+def problem():
+    return design_problem("m_w,F_f", **SETTINGS)
+
+
+@pytest.fixture(scope="module")
+def at_paper(problem):
+    x0 = paper_start(problem)
+    u0 = problem.space.to_unconstrained(x0)
+    j, g, aux = objective_and_grad(problem, u0)
+    return x0, u0, float(j), np.asarray(g), aux
+
+
+def _objective_at(problem, x):
+    return float(objective_and_grad(problem, problem.space.to_unconstrained(jnp.asarray(x)))[0])
+
+
+def test_paper_start_is_the_one_dof_design(problem):
+    """Section II.B through eq 15: m_t_bar = 4 alpha^2 m_w / m_r = 2 and F_t_bar from eq 19."""
+    from jaxcable.arresting.one_dof import PAPER_ROCKET_MASS, design_groups, friction_group_for_stop, v0_bar
+
+    m_w, F_f = np.asarray(paper_start(problem))
+    m_t, F_t = design_groups(m_w, F_f, 3.0, PAPER_ROCKET_MASS)
+    assert float(m_t) == pytest.approx(2.0, rel=1e-12)
+    # eq 19 by hand: (v0_bar^2/2 + 0.4) / (sqrt(1 + 0.4^2) - 1)
+    vb = 20.0 / np.sqrt(9.81 * 25.0)
+    assert float(F_t) == pytest.approx((0.5 * vb**2 + 0.4) / (np.sqrt(1.16) - 1.0), rel=1e-12)
+    assert float(F_t) == pytest.approx(float(friction_group_for_stop(v0_bar(20.0, 25.0), 0.4)), rel=1e-12)
+
+
+def test_gradient_matches_central_differences(problem, at_paper):
+    """dJ/dm_w and dJ/dF_f through the diffrax solve (forward mode) and the reparametrisation, in
+    physical units, against central differences of the same objective in float64."""
+    x0, u0, j0, g_u, aux = at_paper
+    assert np.all(np.asarray(aux["status"]) == 0)
+    x0 = np.asarray(x0)
+    lo, hi = np.asarray(problem.space.lower), np.asarray(problem.space.upper)
+    dx_du = (x0 - lo) * (hi - x0) / (hi - lo)
+    g_x = g_u / dx_du
+    steps = np.array([5.0, 1.0e3])  # 0.4 % and 0.3 % of m_w and F_f
+    for i, name in enumerate(problem.space.names):
+        e = np.zeros(2)
+        e[i] = steps[i]
+        fd = (_objective_at(problem, x0 + e) - _objective_at(problem, x0 - e)) / (2 * steps[i])
+        # measured agreement 0.1 % (truncation O(h^2) plus the adaptive solver's response to a
+        # parameter change, ~rtol / h); 0.5 % leaves room for a different BLAS, and a wrong chain
+        # rule (e.g. a missing dx/du) is off by factors, not by 0.5 %
+        assert g_x[i] == pytest.approx(fd, rel=5e-3), (name, g_x[i], fd)
+        assert abs(g_x[i]) > 0.0
+
+
+def test_smooth_criteria_bound_the_hard_ones(problem, at_paper):
+    """Per case, soft max >= hard max (logsumexp is an upper bound) and <= hard + width log(n_save)."""
+    aux = at_paper[4]
+    w = SmoothingWidths()
+    n_save = 401
+    for key, width in (("z_max_m", w.z_m), ("a_max_g", w.a_g), ("sigma_max_mpa", w.sigma_mpa)):
+        soft, hard = np.asarray(aux["smooth"][key]), np.asarray(aux["hard"][key])
+        assert np.all(soft >= hard - 1e-12), key
+        assert np.all(soft <= hard + width * np.log(n_save) + 1e-12), key
+
+
+def test_reparametrisation_round_trip_and_bounds():
+    sp = DesignSpace.from_names("m_w,F_f", bounds={"F_f": (1.0e5, 6.0e5)})
+    assert sp.names == ("m_w", "F_f")
+    x = jnp.array([1388.9, 3.0886e5])
+    np.testing.assert_allclose(np.asarray(sp.to_physical(sp.to_unconstrained(x))), np.asarray(x), rtol=1e-13)
+    # any u maps inside the bounds (closed at float64 saturation, |u| ~ 40)
+    rng = np.random.default_rng(0)
+    u = jnp.asarray(rng.normal(scale=20.0, size=(200, 2)))
+    xs = np.asarray(jax_vmap_physical(sp, u))
+    assert np.all(xs >= np.asarray(sp.lower)) and np.all(xs <= np.asarray(sp.upper))
+    np.testing.assert_allclose(np.asarray(sp.to_physical(jnp.zeros(2))), [2650.0, 3.5e5], rtol=1e-14)
+    # the design's value is the sigmoid's: u = logit((x - lo) / (hi - lo)) by hand
+    p = (1388.9 - 300.0) / 4700.0
+    assert float(sp.to_unconstrained(x)[0]) == pytest.approx(np.log(p / (1 - p)), rel=1e-13)
+
+
+def jax_vmap_physical(space, u):
+    import jax
+
+    return jax.vmap(space.to_physical)(u)
+
+
+def test_cvar_against_brute_force():
+    rng = np.random.default_rng(1)
+    v = rng.normal(size=20)
+    desc = np.sort(v)[::-1]
+    # integer tail size: mean of the worst k by sorting
+    for alpha, k in ((0.75, 5), (0.5, 10), (0.95, 1)):
+        assert float(cvar(jnp.asarray(v), alpha)) == pytest.approx(desc[:k].mean(), rel=1e-13)
+    assert float(cvar(jnp.asarray(v), 0.0)) == pytest.approx(v.mean(), rel=1e-13)
+    # any level: Rockafellar-Uryasev min_t t + E[(X - t)+]/(1 - alpha), piecewise linear and convex
+    # in t, so the minimum is at a sample: brute force over the samples
+    for alpha in (0.1, 0.33, 0.62, 0.9, 0.97):
+        ru = min(t + np.mean(np.maximum(v - t, 0.0)) / (1 - alpha) for t in v)
+        assert float(cvar(jnp.asarray(v), alpha)) == pytest.approx(ru, rel=1e-12, abs=1e-13)
+        width = 0.05
+        smooth = float(smooth_cvar(jnp.asarray(v), alpha, width))
+        # softplus >= hinge and exceeds it by at most width log 2
+        assert ru - 1e-12 <= smooth <= ru + width * np.log(2) / (1 - alpha) + 1e-12
+        fine = float(smooth_cvar(jnp.asarray(v), alpha, 1e-4))
+        assert fine == pytest.approx(ru, abs=1e-4 * np.log(2) / (1 - alpha) + 1e-12)
+
+
+def test_smooth_cvar_gradient_is_the_envelope_gradient():
+    """d smooth_cvar / dX = sigmoid((X - t*)/w) / (n (1 - alpha)) (envelope theorem); check against
+    central differences of the value (the bisection itself is not differentiated)."""
+    import jax
+
+    rng = np.random.default_rng(2)
+    v = jnp.asarray(rng.normal(size=12))
+    alpha, width = 0.7, 0.1
+    g = np.asarray(jax.grad(lambda x: smooth_cvar(x, alpha, width))(v))
+    h = 1e-6
+    fd = np.array(
+        [
+            (float(smooth_cvar(v.at[i].add(h), alpha, width)) - float(smooth_cvar(v.at[i].add(-h), alpha, width))) / (2 * h)
+            for i in range(12)
+        ]
+    )
+    np.testing.assert_allclose(g, fd, atol=1e-7)
+    assert g.sum() == pytest.approx(1.0, rel=1e-9)  # weights of a mean: sum to one
+
+
+def test_a_few_adam_steps_decrease_the_objective(problem, at_paper):
+    x0, _, j0, _, _ = at_paper
+    hist = optimise(problem, x0, steps=3, learning_rate=0.1)
+    assert hist.objective.shape == (4,) and hist.x.shape == (4, 2)
+    assert hist.objective[0] == pytest.approx(j0, rel=1e-12)  # same start, same compiled objective
+    assert np.all(np.diff(hist.objective) < 0.0), hist.objective
+    # deterministic: the same run again gives the same history
+    again = optimise(problem, x0, steps=1, learning_rate=0.1)
+    np.testing.assert_array_equal(again.x, hist.x[:2])
+
+
+def test_cli_json(problem, at_paper, capsys):
+    """``jaxcable design --json`` reports before/after with hard and smooth criteria; its "before"
+    block agrees with the fixture's batch evaluated directly (same problem, same compiled objective)."""
+    rc = design_main(CLI_ARGS + ["--steps", "2", "--json"])
+    assert rc == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["variables"] == ["m_w", "F_f"] and out["n"] == 4
+    _, _, j0, _, aux = at_paper
+    before = out["before"]
+    assert before["objective"] == pytest.approx(j0, rel=1e-12)
+    limits = {"z_max_m": 10.0, "a_max_g": 5.0, "sigma_max_mpa": 800.0}
+    ok = np.ones(4, bool)
+    for key, limit in limits.items():
+        hard, smooth = np.asarray(aux["hard"][key]), np.asarray(aux["smooth"][key])
+        assert before["criteria"]["hard"][key]["worst"] == pytest.approx(hard.max(), rel=1e-12)
+        assert before["criteria"]["hard"][key]["mean"] == pytest.approx(hard.mean(), rel=1e-12)
+        assert before["criteria"]["smooth"][key]["worst"] == pytest.approx(smooth.max(), rel=1e-12)
+        assert before["criteria"]["hard"][key]["margin"] == pytest.approx(1.0 - hard.max() / limit, rel=1e-12)
+        ok &= hard < limit
+    assert before["criteria"]["success_rate"] == pytest.approx(ok.mean())
+    # "after" is the best point of the history it prints
+    hist = np.asarray(out["history"]["objective"])
+    assert len(hist) == 3
+    assert out["after"]["objective"] == pytest.approx(hist.min(), rel=1e-12)
+    assert out["best_step"] == int(np.argmin(hist))
+
+
+def test_bad_input_gets_clear_errors(capsys):
+    with pytest.raises(ValueError, match="design variable 'm_x'"):
+        DesignSpace.from_names("m_w,m_x")
+    with pytest.raises(ValueError, match="bounds of F_f are inverted"):
+        DesignSpace.from_names("F_f", bounds={"F_f": (4e5, 2e5)})
+    with pytest.raises(ValueError, match="lower bound of m_w must be positive"):
+        DesignSpace.from_names("m_w", bounds={"m_w": (-10.0, 100.0)})
+    with pytest.raises(ValueError, match="repeated"):
+        DesignSpace.from_names("m_w,m_w")
+    sp = DesignSpace.from_names("m_w,F_f")
+    with pytest.raises(ValueError, match="m_w must be in"):
+        sp.to_unconstrained(jnp.array([-5.0, 3e5]))  # a negative counterweight mass
+    with pytest.raises(ValueError, match="needs phase='full'"):
+        design_problem("m_w,a_p", n=2)
+    with pytest.raises(NotImplementedError, match="not available yet"):
+        design_problem("m_w", n=2, phase="full")
+    with pytest.raises(ValueError, match="alpha"):
+        ObjectiveWeights(alpha=1.0)
+    with pytest.raises(ValueError, match="tail_criterion"):
+        ObjectiveWeights(tail_criterion="median")
+    with pytest.raises(ValueError, match="penalty"):
+        ObjectiveWeights(penalty=(1.0, -1.0, 1.0))
+    with pytest.raises(ValueError, match="n must be a positive integer"):
+        design_problem("m_w", n=0)
+    assert design_main(["--vars", "m_w,a_p"]) == 2
+    assert "needs phase='full'" in capsys.readouterr().err
+    assert design_main(["--vars", "m_w", "--start", "m_w=-3"]) == 2
+    assert "m_w must be in" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_reverse_mode_matches_forward_mode(at_paper):
+    """RecursiveCheckpointAdjoint + grad gives the forward-mode gradient (same discrete solve)."""
+    rev = design_problem("m_w,F_f", gradient="reverse", **SETTINGS)
+    _, u0, j0, g_fwd, _ = at_paper
+    j, g, _ = objective_and_grad(rev, u0)
+    # same solve; the two traces differ in operation order (measured 1e-9 relative on J)
+    assert float(j) == pytest.approx(j0, rel=1e-8)
+    # both differentiate the same discrete solve; they differ by round-off and the reverse pass's
+    # re-computation of the step controller (measured 1e-5 relative)
+    np.testing.assert_allclose(np.asarray(g), g_fwd, rtol=1e-4)
