@@ -100,7 +100,7 @@ PHASES = ("full", "passive")
 ``passive``: the passive-deceleration phase from the captured state (Tables 8 and 4)."""
 
 # Table 4, per scenario: maximal steady wind speed [m/s], terminal-guidance height h [m], design
-# tracking time t_c [s] and the saturation exponent a_p of the PD controller (section II.A).
+# tracking time t_c [s] and the proportional gain a_p [1/s] of the PD law (eq 4) (section II.A).
 _SCENARIO_SETTINGS = {
     "I": dict(v_ws_max=5.0, h_m=200.0, t_c_s=10.0, a_p=2.0),
     "II": dict(v_ws_max=10.0, h_m=120.0, t_c_s=6.0, a_p=5.0),
