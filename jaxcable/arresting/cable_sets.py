@@ -10,7 +10,10 @@ r"""The four arresting cables as one scene component, at two fidelities behind o
 * :class:`AleCables` (levels ``ale`` and ``full``): each cable is a :class:`CableSubsystem` (ALE
   elements over pulleys, consistent mass, buffer) and touches the hooks through the Hertz/Coulomb
   contact of :mod:`jaxcable.arresting.contact`, checked between every hook capsule (arm, barb) and
-  every element of every arresting span.
+  every element of every arresting span. Per cable, the kinematics of the state are computed once
+  (:meth:`CableSubsystem.kinematics`) and shared by the contact, the accelerations, the dissipation
+  and the tensions (the vector field is evaluated ~10^5 times per landing; see
+  ``docs/arresting_design.md``, "Speed of the ALE levels").
 
 Interface (what the scene uses): ``initial_state(hooks)``, ``respond(state, hooks)`` ->
 ``(hook_point_forces (4, 3, 3) [N] at each hook's (hinge, tip, barb end), d state/dt, aux)`` and

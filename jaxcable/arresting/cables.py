@@ -234,8 +234,9 @@ class CableRoute(eqx.Module):
         """``blockdiag_j(That_j^-1)`` (n_int, n_int): inverse of the internal-node consistent-mass
         pattern. Span j's internal-node mass block is ``rhoA L_j / 6 That_j`` (x) I3 with ``That_j``
         tridiagonal in the material fractions (diagonal ``2 (dF_left + dF_right)``, off-diagonal the
-        shared element's ``dF``), so it depends only on the (constant) fractions."""
-        bidx, iidx, _, _ = self._index_tables()
+        shared element's ``dF``), so it depends only on the (constant) fractions: under ``jit`` XLA
+        computes it once, outside the solver's loop."""
+        _, iidx, _, _ = self._index_tables()
         internal = np.nonzero(iidx >= 0)[0]
         W = self.interpolation_weights()
         _, _, end, _ = self._interpolation_tables()
