@@ -141,3 +141,35 @@ def test_gradients_wrt_gain_match_finite_differences():
     assert np.all(np.isfinite(np.asarray(jac)))
     assert abs(float(jac[0])) > 0.05  # the gain moves the frame at capture
     np.testing.assert_allclose(np.asarray(jac), np.asarray(fd), rtol=1e-2)
+
+
+@pytest.mark.parametrize("scenario", ["I", "II", "III"])
+def test_tracking_converges_under_noise_and_delay_for_each_scenario(scenario):
+    """Issue 4: the frame's tracking error converges for each scenario's gain a_p (Table 4), with the
+    deviated case's dead time (0.1 s) and measurement noise (0.1 m RMS) and eq 8's printed motor
+    bandwidth (1 /s). The reference is the geometry, not our own run: the error starts at the 18.4 m
+    lateral offset of the deviated case (13 m, 13 m) and must fall below one tenth of it, then stay
+    there over the last fifth of the tracking time up to capture (a sign error in the PD law, the
+    target rule or the slider map would diverge or stall). The paper's "approaches zero" is met only
+    down to a floor set by noise, delay and the target's motion (measured 0.4-1.1 m at capture with
+    b = 1 /s; see the module docstring of two_phase for scenario III's near miss)."""
+    from jaxcable.arresting.two_phase import tracking_outputs
+
+    scene = tracking_scene(scenario=scenario)
+    assert float(scene.controller.motor_delay_s) == pytest.approx(0.1)
+    assert float(scene.controller.noise_rms_m) == pytest.approx(0.1)
+    track, out = tracking_outputs(scene)
+    ts = np.asarray(track.ts)
+    err = np.asarray(track.probes["tracking_error_m"])
+    ok = np.isfinite(ts)
+    ts, err = ts[ok], err[ok]
+    t_c = float(scene.controller.tracking_time_s)
+    initial = np.hypot(13.0, 13.0)
+    assert err[0] == pytest.approx(initial, rel=0.02)
+    late = ts >= 0.8 * t_c
+    assert late.sum() >= 5
+    assert err[late].max() < 0.1 * initial, (scenario, err[late].max())
+    assert float(out["tracking_error_at_capture_m"]) < 0.1 * initial
+    # the error shrinks on every quarter of the tracking time until the noise floor is reached
+    q = [err[np.argmin(abs(ts - f * t_c))] for f in (0.0, 0.25, 0.5)]
+    assert q[0] > q[1] > q[2], (scenario, q)
