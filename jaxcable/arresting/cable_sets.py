@@ -124,7 +124,9 @@ class MasslessCables(eqx.Module):
     def _strain(self, u, throat):
         return self._lengths(u, throat) / self.unstretched_m - 1.0
 
-    def respond(self, state: MasslessState, hooks: HookPoints):
+    def respond(self, state: MasslessState, hooks: HookPoints, t=0.0):
+        """Forces on the hooks and the counterweight coordinates' rates (``t`` unused: massless
+        cables carry no wind load; see :mod:`.passive`)."""
         throat, throat_v = _engaged_throats(hooks, self.throat_w)
         d_a = self.span_ends[:, 0] - throat
         d_b = self.span_ends[:, 1] - throat
@@ -186,6 +188,33 @@ class AleCables(eqx.Module):
     """Stacked initial coordinates (4, ...)."""
     span_slice: tuple = eqx.field(static=True)
     """(first, last+1) element indices of the arresting span within a cable's element list."""
+    wind: eqx.Module | None = None
+    """A :class:`jaxcable.arresting.wind.WindField` loading the arresting spans (eq 45), or None
+    (still air). Only the spans between the sliders are exposed: the tower runs and the block strands
+    are inside the towers."""
+    aero: eqx.Module | None = None
+    """:class:`jaxcable.arresting.wind.AeroCoefficients` of the cable drag (``cable_*``); required
+    with ``wind``."""
+    wind_time_offset_s: jax.Array = eqx.field(converter=jnp.asarray, default=0.0)
+    """Scene time 0 is wind time ``wind_time_offset_s`` [s] (the capture instant of a two-phase
+    landing, so the gust continues through the phase switch)."""
+
+    def __check_init__(self):
+        if self.wind is not None and self.aero is None:
+            raise ValueError("AleCables: wind given without aero coefficients (aero=None)")
+
+    def _span_drag(self, kin, t):
+        """Cross-flow drag on the arresting span's elements: (element_forces (n_el, 2, 3), power [W])."""
+        from .wind import cable_drag_element_forces
+
+        lo, hi = self.span_slice
+        a1, a2 = kin.a1[lo:hi], kin.a2[lo:hi]
+        drag = cable_drag_element_forces(
+            kin.r[lo:hi], kin.r[lo + 1 : hi + 1], a1, a2, 2.0 * self.cable_radius_m, self.wind,
+            t + self.wind_time_offset_s, self.aero,
+        )  # fmt: skip
+        power = jnp.sum(drag[:, 0] * a1) + jnp.sum(drag[:, 1] * a2)
+        return jnp.zeros((kin.length.shape[0], 2, 3)).at[lo:hi].set(drag), power
 
     @classmethod
     def build(
@@ -319,22 +348,30 @@ class AleCables(eqx.Module):
         power = power + jnp.sum(f_hook * V)
         return element_forces, f_hook, normal, power
 
-    def respond(self, state: CableState, hooks: HookPoints):
+    def respond(self, state: CableState, hooks: HookPoints, t=0.0):
+        """Cable accelerations and the forces on the hooks at time ``t`` [s] (used by the wind only)."""
+
         def one(sub, q, qdot):
             kin = sub.kinematics(q, qdot)
             element_forces, f_hook, normal, power = self._one_cable(sub, kin, hooks)
+            if self.wind is None:
+                aero_power = jnp.zeros(())
+            else:
+                drag, aero_power = self._span_drag(kin, t)
+                element_forces = element_forces + drag
             qdd = sub.accelerations(q, qdot, element_forces=element_forces, kin=kin)
             diss = sub.dissipated_power(q, qdot, kin)
             tension = jnp.max(sub.element_tensions(kin))
-            return qdd, diss, f_hook, normal, power, tension
+            return qdd, diss, f_hook, normal, power, tension, aero_power
 
-        qdd, diss, f_hook, normal, power, tension = jax.vmap(one)(self.subsystems, state.q, state.qdot)
+        qdd, diss, f_hook, normal, power, tension, aero_power = jax.vmap(one)(self.subsystems, state.q, state.qdot)
         dstate = CableState(q=state.qdot, qdot=qdd, dissipated=diss)
         aux = dict(
             tension_max_N=jnp.max(tension),
             hook_normal_force_N=jnp.sum(normal, axis=0),
             counterweight_rise_m=self.subsystems.buffer.transfer_rate * state.q.u,
             contact_power_W=jnp.sum(power),
+            aero_power_W=jnp.sum(aero_power),
         )
         return jnp.sum(f_hook, axis=0), dstate, aux
 

@@ -27,6 +27,8 @@ The acceleration is that of the rocket's centre of mass, ``g + F_cables / m``, e
 
 from __future__ import annotations
 
+import dataclasses
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -72,6 +74,8 @@ class PassiveState(eqx.Module):
     stored and dissipated); zero for the massless level."""
     hook_damping_work: jax.Array
     """Energy dissipated so far by the hook dampers [J] (zero when the hooks are welded)."""
+    aero_work: jax.Array
+    """Work done so far by the air on the rocket and the cables [J] (zero in still air)."""
 
 
 class PassiveLandingScene(AbstractScene):
@@ -84,6 +88,18 @@ class PassiveLandingScene(AbstractScene):
     gravity: jax.Array
     t_end_s: float = eqx.field(static=True, default=2.0)
     n_save: int = eqx.field(static=True, default=401)
+    wind: eqx.Module | None = None
+    """:class:`.wind.WindField` or None (still air): aerodynamic loads on the rocket (eqs 43-44, the
+    free rocket: the engine and its guidance are off after capture) and, at the ale/full levels, on
+    the arresting spans (eq 45, :class:`AleCables`). The rigid level's massless cables carry none."""
+    aero: eqx.Module | None = None
+    """:class:`.wind.AeroCoefficients` (required with ``wind``)."""
+    wind_time_offset_s: jax.Array = eqx.field(converter=jnp.asarray, default=0.0)
+    """Scene time 0 is wind time ``wind_time_offset_s`` [s] (the capture instant of a two-phase run)."""
+
+    def __check_init__(self):
+        if self.wind is not None and self.aero is None:
+            raise ValueError("PassiveLandingScene: wind given without aero coefficients (aero=None)")
 
     def initial_state(self):
         c = self.capture
@@ -92,20 +108,38 @@ class PassiveLandingScene(AbstractScene):
             cables=self.cables.initial_state(),
             contact_work=jnp.zeros(()),
             hook_damping_work=jnp.zeros(()),
+            aero_work=jnp.zeros(()),
         )
 
     def hooks(self, rocket_state) -> HookPoints:
         pos, vel = self.rocket.hook_points_world(rocket_state)
         return HookPoints(positions=pos, velocities=vel)
 
-    def _step(self, state):
+    def _rocket_aero(self, t, rocket_state):
+        """Aerodynamic point loads on the rocket, their resultant [N] and power [W]."""
+        from ..body.multibody import point_kinematics
+        from .wind import rocket_aero_loads
+
+        if self.wind is None:
+            return (), jnp.zeros(3), jnp.zeros(())
+        loads = rocket_aero_loads(self.rocket, rocket_state, self.wind, t + self.wind_time_offset_s, self.aero)
+        power, total = jnp.zeros(()), jnp.zeros(3)
+        for bodies, local, f in loads:
+            _, v = point_kinematics(self.rocket.system, rocket_state, bodies, local)
+            power = power + jnp.sum(f * v)
+            total = total + jnp.sum(f.reshape(-1, 3), axis=0)
+        return loads, total, power
+
+    def _step(self, t, state):
         hooks = self.hooks(state.rocket)
-        forces, dcables, aux = self.cables.respond(state.cables, hooks)
-        drocket = self.rocket.derivative(state.rocket, self.gravity, hook_forces_N=forces)
+        forces, dcables, aux = self.cables.respond(state.cables, hooks, t)
+        loads, aero_total, aero_power = self._rocket_aero(t, state.rocket)
+        drocket = self.rocket.derivative(state.rocket, self.gravity, hook_forces_N=forces, point_forces=loads)
+        aux = dict(aux, aero_force_N=aero_total, aero_power_W=aero_power + aux.get("aero_power_W", 0.0))
         return drocket, dcables, forces, aux
 
     def vector_field(self, t, state):
-        drocket, dcables, _, aux = self._step(state)
+        drocket, dcables, _, aux = self._step(t, state)
         rate = state.rocket.hinge_rate
         hook_power = self.rocket.params.hook_rotational_damping_N_m_s_per_rad * jnp.sum(rate**2)
         return PassiveState(
@@ -113,6 +147,7 @@ class PassiveLandingScene(AbstractScene):
             cables=dcables,
             contact_work=aux.get("contact_power_W", jnp.zeros(())),
             hook_damping_work=hook_power,
+            aero_work=aux["aero_power_W"],
         )
 
     def default_save_ts(self, t1):
@@ -122,17 +157,18 @@ class PassiveLandingScene(AbstractScene):
         return jnp.linspace(0.0, t1, 5)
 
     def probe(self, t, state):
-        drocket, dcables, forces, aux = self._step(state)
+        drocket, dcables, forces, aux = self._step(t, state)
         hooks = self.hooks(state.rocket)
         o_pos, o_vel = self.rocket.reference_point(state.rocket)
         o0 = self.capture.position
         mass = self.rocket.total_mass_kg
-        acc = self.gravity + jnp.sum(forces, axis=(0, 1)) / mass
+        acc = self.gravity + (jnp.sum(forces, axis=(0, 1)) + aux["aero_force_N"]) / mass
         e_r = self.rocket.energies(state.rocket, self.gravity)
         e_c = self.cables.energies(state.cables, hooks)
         energy = {**{f"rocket_{k}": v for k, v in e_r.items() if k != "total"}, **e_c}
         energy["contact_work"] = state.contact_work
         energy["dissipated_hook_dampers"] = state.hook_damping_work
+        energy["aero_work"] = state.aero_work
         return dict(
             drop_m=o0[2] - o_pos[2],
             velocity_m_s=o_vel,
@@ -162,8 +198,10 @@ class PassiveLandingScene(AbstractScene):
 
 
 def _energy_total(energy):
-    stored = sum(v for k, v in energy.items() if k not in ("contact_work",))
-    return stored - energy["contact_work"]
+    # stored + dissipated - work done on the system (contact work is internal: the contact energy
+    # stored and dissipated, counted on both bodies; the air's work is external)
+    stored = sum(v for k, v in energy.items() if k not in ("contact_work", "aero_work"))
+    return stored - energy["contact_work"] - energy.get("aero_work", 0.0)
 
 
 def landing_outputs(ts, probes, status, criteria: LandingCriteria = LandingCriteria()):
@@ -245,6 +283,9 @@ def passive_landing_scene(
     t_end_s: float = 2.0,
     cable_damping_s: float = 1e-5,
     frame_centre_xy=None,
+    wind=None,
+    aero=None,
+    wind_time_offset_s=0.0,
 ):
     """The passive-deceleration scene with the paper's Table 1 defaults at a fidelity level
     (``rigid``, ``ale`` or ``full``; the ``1dof`` level is run by :func:`run_landing`).
@@ -264,6 +305,10 @@ def passive_landing_scene(
 
     ``frame_centre_xy`` (2,) [m]: centre of the capture frame (the sliders' positions) at capture;
     default: under O (perfect tracking). The two-phase scene passes the tracked frame's centre.
+
+    ``wind`` (:class:`.wind.WindField`, default None: still air), ``aero``
+    (:class:`.wind.AeroCoefficients`, default ``AeroCoefficients()`` when wind is given) and
+    ``wind_time_offset_s`` [s]: air loads on the rocket and (ale/full) the arresting spans.
     """
     from ..body.landing_rocket import flexible_landing_rocket, rigid_landing_rocket
     from .contact import ContactLaw
@@ -310,4 +355,13 @@ def passive_landing_scene(
             fine_half_width_m=fine_half_width_m,
             damping_s=cable_damping_s,
         )
-    return PassiveLandingScene(rocket=rocket, cables=cables, capture=capture, gravity=gravity, t_end_s=t_end_s)
+    if wind is not None:
+        from .wind import AeroCoefficients
+
+        aero = AeroCoefficients() if aero is None else aero
+        if isinstance(cables, AleCables):
+            cables = dataclasses.replace(cables, wind=wind, aero=aero, wind_time_offset_s=wind_time_offset_s)
+    return PassiveLandingScene(
+        rocket=rocket, cables=cables, capture=capture, gravity=gravity, t_end_s=t_end_s, wind=wind, aero=aero,
+        wind_time_offset_s=wind_time_offset_s,
+    )  # fmt: skip

@@ -39,7 +39,10 @@ aerodynamic loads on the rocket (:mod:`.wind`, eqs 43-45). Modelling choices, ea
 * **Phase 2** starts from the captured state (position, velocity, attitude and rates of ``O``,
   exactly those of Table 5) and the frame's centre at capture, at the requested fidelity level. The
   flexible rocket of level ``full`` starts undeformed (its gust-driven vibration in phase 1 is not
-  carried over: the tracking phase uses the rigid rocket at every level).
+  carried over: the tracking phase uses the rigid rocket at every level). The wind continues
+  (the gust at wind time ``capture_time + t``) and loads the now free rocket (engine and guidance
+  off, eqs 43-44, moment included) and, at the ale/full levels, the arresting spans (eq 45); the
+  air's work enters the energy budget (``aero_work``). ``passive_air=False``: still air.
 
 Outputs (:func:`two_phase_outputs`): ``captured``, ``capture_margin_m`` (smallest of the four),
 ``tracking_error_m`` at ``t_c / 2`` and at capture, ``capture_time_s``, the captured state, and the
@@ -337,8 +340,13 @@ def two_phase_outputs(
     passive_kwargs=None,
     keep_histories: bool = False,
     adjoint=None,
+    passive_air: bool = True,
 ):
     """Both phases of one landing as one pure function (vmappable, differentiable): dict of arrays.
+
+    ``passive_air``: the passive phase keeps the tracking phase's wind (continued from the capture
+    instant) and aerodynamics on the rocket (and on the arresting spans at the ale/full levels);
+    False: still air after capture.
 
     The smooth outputs (``smooth_*``) are for gradients: a soft minimum of the capture margins
     (width ``margin_width_m``) and the soft maxima of :func:`smooth_landing_outputs`."""
@@ -351,7 +359,7 @@ def two_phase_outputs(
     solver, rtol, atol, steps = (solver_settings or {}).get(fidelity, LEVEL_DEFAULTS[fidelity])
     passive = passive_landing_scene(
         fidelity, capture, scene.layout, buffer, frame_centre_xy=centre, t_end_s=passive_t_end_s,
-        **(passive_kwargs or {}),
+        **_air_kwargs(scene, out1, passive_air), **(passive_kwargs or {}),
     )  # fmt: skip
     land = simulate(passive, passive_t_end_s, solver=solver, rtol=rtol, atol=atol, max_steps=steps, adjoint=adjoint)
     hard = landing_outputs(land.ts, land.probes, land.status, criteria)
@@ -368,6 +376,12 @@ def two_phase_outputs(
         out["tracking"] = track
         out["passive"] = land
     return out
+
+
+def _air_kwargs(scene, out1, passive_air):
+    if not passive_air:
+        return {}
+    return dict(wind=scene.wind, aero=scene.aero, wind_time_offset_s=out1["capture_time_s"])
 
 
 def _event_occurred(status):
@@ -429,6 +443,7 @@ def run_two_phase(
     passive_t_end_s: float = 2.0,
     criteria: LandingCriteria = LandingCriteria(),
     progress: bool = False,
+    passive_air: bool = True,
     **scene_kwargs,
 ) -> TwoPhaseRun:
     """Run one two-phase landing (default: the deviated case of section IV.A in scenario I).
@@ -446,7 +461,7 @@ def run_two_phase(
     capture = CaptureState(**{f: float(getattr(capture, f)) for f in capture.__dataclass_fields__})
     land = run_landing(
         fidelity, capture, scene.layout, buffer, t_end_s=passive_t_end_s, criteria=criteria, progress=progress,
-        frame_centre_xy=np.asarray(out["frame_centre_at_capture_m"]),
+        frame_centre_xy=np.asarray(out["frame_centre_at_capture_m"]), **_air_kwargs(scene, out, passive_air),
     )  # fmt: skip
     res = _to_python(out)
     res.update({k: v for k, v in land.outputs.items() if k != "energy_budget_J"})

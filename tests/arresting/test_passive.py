@@ -15,6 +15,7 @@ from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.landing import report_landing, run_landing
 from jaxcable.arresting.layout import ArrestingLayout, CaptureState
 from jaxcable.arresting.passive import passive_landing_scene, smooth_landing_outputs
+from jaxcable.arresting.wind import WindField
 
 KEYS = ("z_max_m", "a_max_g", "sigma_max_mpa", "stop_time_s", "criteria_met", "solver_status")
 
@@ -119,9 +120,15 @@ def test_deviated_capture_rigid_level_is_finite_and_recentres():
 def test_ale_and_full_levels_start_of_capture(fidelity):
     """First 0.1 s of the design case with ALE cables and hook contact: every hook carries a contact
     force, the budget (with contact work, damping and brakes) closes within 1%, the cable mass is
-    conserved over the pulleys."""
-    run = run_landing(fidelity, t_end_s=0.1)
+    conserved over the pulleys. The ale case runs in a 20 m/s wind with 20% gust (air loads on the
+    rocket and the spans, the air's work in the budget)."""
+    kw = {}
+    if fidelity == "ale":
+        kw = dict(wind=WindField(speed_m_s=20.0, angle_deg=90.0, gust_intensity=0.2, key=jax.random.PRNGKey(1)))
+    run = run_landing(fidelity, t_end_s=0.1, **kw)
     o = run.outputs
+    if fidelity == "ale":
+        assert run.probes["energy"]["aero_work"][-1] != 0.0
     assert o["solver_status"] == "successful", o
     assert o["energy_budget_error"] < 1e-2
     force = run.probes["hook_normal_force_N"]
@@ -129,6 +136,70 @@ def test_ale_and_full_levels_start_of_capture(fidelity):
     assert np.all(np.max(force[ok], axis=0) > 1e4)
     assert np.all(np.isfinite(run.probes["drop_m"][ok]))
     assert run.probes["drop_m"][ok][-1] > 1.5  # still falling at ~20 m/s
+
+
+def test_wind_in_passive_phase_rigid_level_drifts_downwind_and_closes_budget():
+    """Eqs 43-44 on the free rocket after capture: in still air the rocket's own drag only removes
+    energy (negative air work); a 20 m/s wind from the east (90 deg) with 20% gust pushes it west
+    (-x); the budget with the air's work closes in both."""
+    out = {}
+    for speed in (0.0, 20.0):
+        wind = WindField(speed_m_s=speed, angle_deg=90.0, gust_intensity=0.2, key=jax.random.PRNGKey(0))
+        scene = passive_landing_scene("rigid", t_end_s=1.0, wind=wind, wind_time_offset_s=3.0)
+        res = simulate(scene, 1.0, rtol=1e-7, atol=1e-7, max_steps=100_000)
+        assert res.status_message == "successful"
+        assert float(res.outputs["energy_budget_error"]) < 1e-5
+        out[speed] = res
+    assert float(out[0.0].probes["energy"]["aero_work"][-1]) < 0.0
+    assert np.max(np.abs(out[0.0].probes["centre_xy_m"])) < 1e-6  # still air: stays central
+    assert float(out[20.0].probes["centre_xy_m"][-1, 0]) < -0.1
+    assert abs(float(out[20.0].probes["centre_xy_m"][-1, 1])) < abs(float(out[20.0].probes["centre_xy_m"][-1, 0]))
+
+
+def test_cable_span_drag_matches_cylinder_closed_form():
+    """Eq 45 on the ALE spans: a steady 15 m/s wind from the east on the design case's spans at rest.
+    Each span is draped in two straight legs (slider -> hook throat -> slider); a leg of length ``l``
+    at angle ``phi`` to the wind's normal carries the cylinder's cross-flow drag
+    ``rho/2 d l C_n (v cos phi)^2`` along its normal plus skin friction ``rho/2 d l C_t pi (v sin phi)^2``
+    along it. Cables 0, 1 run (nearly) north-south, across the flow; cables 2, 3 along it. The sum
+    over the meshed elements must equal the two legs' closed form; the tower runs and block strands
+    (inside the towers) carry none."""
+    wind = WindField(speed_m_s=15.0, angle_deg=90.0, gust_intensity=0.0, key=jax.random.PRNGKey(0))
+    scene = passive_landing_scene("ale", wind=wind)
+    cables = scene.cables
+    q0 = cables.q0
+    zero = jax.tree_util.tree_map(jnp.zeros_like, q0)
+    forces, power = jax.vmap(lambda sub, q, qd: cables._span_drag(sub.kinematics(q, qd), 0.0))(
+        cables.subsystems, q0, zero
+    )
+    lo, hi = cables.span_slice
+    kin = jax.vmap(lambda sub, q, qd: sub.kinematics(q, qd))(cables.subsystems, q0, zero)
+    a, d, rho = scene.aero, 2.0 * float(cables.cable_radius_m), float(wind.air_density_kg_m3)
+    air = np.array([-15.0, 0.0, 0.0])  # from the east (90 deg), blowing west
+    total = np.asarray(jnp.sum(forces, axis=(1, 2)))  # (4, 3)
+    for k in range(4):
+        nodes = np.asarray(kin.r)[k, lo : hi + 1]
+        pa, pb = nodes[0], nodes[-1]
+        line = (pb - pa) / np.linalg.norm(pb - pa)
+        off = nodes - pa - np.outer((nodes - pa) @ line, line)
+        c = nodes[np.argmax(np.linalg.norm(off, axis=1))]  # the throat: the drape's kink
+        expect = np.zeros(3)
+        for p1, p2 in ((pa, c), (c, pb)):
+            length = np.linalg.norm(p2 - p1)
+            tangent = (p2 - p1) / length
+            rel = -air  # cable at rest: velocity relative to the air
+            u = rel @ tangent
+            w = rel - u * tangent
+            expect -= 0.5 * rho * d * length * (
+                float(a.cable_normal_drag_coefficient) * np.linalg.norm(w) * w
+                + float(a.cable_tangential_drag_coefficient) * np.pi * abs(u) * u * tangent
+            )
+        np.testing.assert_allclose(total[k], expect, rtol=1e-9, atol=1e-9 * np.linalg.norm(expect))
+    # across the flow the drag is C_n / (pi C_t) = 38x the along-flow skin friction (default coefficients)
+    assert abs(total[0, 0]) > 30 * abs(total[2, 0])
+    outside = np.concatenate([np.asarray(forces)[:, :lo], np.asarray(forces)[:, hi:]], axis=1)
+    assert np.all(outside == 0.0)
+    np.testing.assert_allclose(np.asarray(power), 0.0, atol=1e-12)  # cable at rest: no power
 
 
 def test_cli_land_json():
