@@ -204,6 +204,12 @@ def _design(args) -> int:
     return design_main(args.rest)
 
 
+def _bench(args) -> int:
+    from .bench import bench_main
+
+    return bench_main(args.rest)
+
+
 def _angle(text):
     value = float(text)
     if not 0.0 < value < 90.0:
@@ -286,12 +292,15 @@ def build_parser() -> argparse.ArgumentParser:
     de = sub.add_parser("design", help="gradient-based design optimisation (see jaxcable design --help)", add_help=False)
     de.add_argument("rest", nargs=argparse.REMAINDER)
     de.set_defaults(func=_design)
+    be = sub.add_parser("bench", help="short speed-against-error benchmark on this machine (see jaxcable bench --help)", add_help=False)
+    be.add_argument("rest", nargs=argparse.REMAINDER)
+    be.set_defaults(func=_bench)
     return parser
 
 
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
-    # sweep/design parse their own flags (argparse's REMAINDER does not take a rest starting with "--")
+    # sweep/design/bench parse their own flags (argparse's REMAINDER does not take a rest starting with "--")
     if argv[:1] == ["sweep"]:
         from .sweep import sweep_main
 
@@ -300,6 +309,10 @@ def main(argv=None) -> int:
         from .design import design_main
 
         return design_main(argv[1:])
+    if argv[:1] == ["bench"]:
+        from .bench import bench_main
+
+        return bench_main(argv[1:])
     args = build_parser().parse_args(argv)
     return args.func(args)
 

@@ -24,9 +24,10 @@ How a sweep is built (physics stays single-case, STYLE.md 3):
 Readings and choices, written down:
 
 * The passive phase starts at capture (hooks engaged, Table 8 states, vz = -20 m/s). The sampled
-  wind (angle, speed, gust intensity) is **recorded but not applied**: the passive scene has no wind
-  component yet (the paper finds its effect on the passive phase negligible, section IV.C). Time
-  delay and noise are 0 in the passive phase (Table 4).
+  wind (angle, speed, gust intensity) is applied (``PassiveCaseFunction.wind``, default True): air
+  loads on the free rocket and, at the ale/full levels, on the arresting spans (eqs 43-45); the gust
+  is seeded from the sweep's seed and the case's inputs. Time delay and noise are 0 in the passive
+  phase (Table 4).
 * ``captured`` in the passive phase: every hook carries a nonzero cable force at some saved time (the
   paper's capture criterion, "contact forces ... nonzero", section IV.A). ``stopped``: the descent
   stopped within ``t_end_s``. ``success`` = captured and stopped and all three criteria met. The
@@ -150,8 +151,9 @@ class AbstractCaseFunction(eqx.Module):
 class PassiveCaseFunction(AbstractCaseFunction):
     """The passive-deceleration phase of one case at a fidelity level (section IV.C).
 
-    ``params``: the capture states of ``UNCERTAIN_PARAMETERS`` (x_m ... omega_z_deg_s; scalars);
-    other entries (wind, delay, noise) are ignored (see the module docstring). Outputs (scalars):
+    ``params``: the capture states of ``UNCERTAIN_PARAMETERS`` (x_m ... omega_z_deg_s; scalars) and,
+    with ``wind``, the wind angle, speed and gust intensity; delay and noise are ignored (see the
+    module docstring). Outputs (scalars):
     ``captured``, ``stopped``, ``success``, ``criteria_met``, per criterion its flag and margin,
     ``z_max_m`` [m], ``a_max_g`` [g of 9.80 m/s^2], ``sigma_max_mpa`` [MPa], ``stop_time_s`` [s]
     (NaN when not stopped), ``energy_budget_error`` [-], ``status_code`` (diffrax), ``num_steps``.
@@ -175,6 +177,10 @@ class PassiveCaseFunction(AbstractCaseFunction):
     max_steps: int = eqx.field(static=True)
     n_save: int = eqx.field(static=True, default=2001)
     """Samples of the saved histories over [0, t_end_s]; the maxima are taken over them."""
+    wind: bool = eqx.field(static=True, default=True)
+    """Apply the sampled wind (False: still air, no aerodynamic loads at all)."""
+    seed: int = eqx.field(static=True, default=0)
+    """Seed of the gusts (each case's key folds in its inputs, so a case reproduces anywhere)."""
 
     def __check_init__(self):
         check_choice("fidelity", self.fidelity, SWEEP_FIDELITIES)
@@ -196,8 +202,18 @@ class PassiveCaseFunction(AbstractCaseFunction):
         capture = CaptureState(
             **{k: params[k] for k in UNCERTAIN_PARAMETERS[:10]}, vz_m_s=self.vz_m_s
         )
+        air = {}
+        if self.wind:
+            from .arresting.wind import WindField
+
+            bits = jnp.asarray(params["x_m"] * 1e6 + params["y_m"] * 1e3 + params["theta_z_deg"], jnp.float32)
+            key = jax.random.fold_in(jax.random.PRNGKey(self.seed), jax.lax.bitcast_convert_type(bits, jnp.uint32))
+            air["wind"] = WindField(
+                speed_m_s=params["wind_speed_m_s"], angle_deg=params["wind_angle_deg"],
+                gust_intensity=params["gust_intensity"], key=key,
+            )  # fmt: skip
         return passive_landing_scene(
-            self.fidelity, capture, self.layout, self.buffer, t_end_s=self.t_end_s
+            self.fidelity, capture, self.layout, self.buffer, t_end_s=self.t_end_s, **air
         )
 
     def _simulate(self, scene):
@@ -294,6 +310,8 @@ def passive_case_fn(
     n_save: int | None = None,
     vz_m_s: float = CAPTURE_VZ_M_S,
     criteria: LandingCriteria = LandingCriteria(),
+    wind: bool = True,
+    seed: int = 0,
 ) -> PassiveCaseFunction:
     """The passive-phase case function with Table 1 defaults and the level's solver settings
     (``LEVEL_DEFAULTS`` of :mod:`jaxcable.arresting.landing` where an argument is ``None``).
@@ -327,6 +345,8 @@ def passive_case_fn(
         atol=float(atol or rtol or d_atol),
         max_steps=int(max_steps or d_steps),
         n_save=int(n_save or round(t_end_s / SAVE_SPACING_S) + 1),
+        wind=bool(wind),
+        seed=int(seed),
     )
 
 
@@ -732,6 +752,8 @@ def run_qmc_sweep(
     check_choice("phase", phase, PHASES)
     if phase == "full":
         case_kwargs = dict(case_kwargs, scenario=scenario, seed=int(seed))
+    else:
+        case_kwargs = dict(case_kwargs, seed=int(seed))
     case_fn = case_fn_for(phase, fidelity, **case_kwargs)
     samples = halton_samples(n, scenario, phase, seed)
     identity = dict(
@@ -1027,7 +1049,7 @@ def sweep_main(argv: list[str] | None = None) -> int:
         process_index=p_index,
         process_count=p_count,
     )
-    summary["wind_applied"] = args.phase == "full"  # the passive scene has no wind component
+    summary["wind_applied"] = True
     if args.plot:
         title = f"scenario {args.scenario}, {args.phase} phase, fidelity {args.fidelity}, {summary['n_cases']} cases"
         summary["plots"] = [plot_landing_plane(table, f"{args.plot}_plane.png", title)]
@@ -1041,7 +1063,6 @@ def sweep_main(argv: list[str] | None = None) -> int:
         print(json.dumps(summary))
     else:
         print(summary_markdown(summary, f"scenario {args.scenario}, {args.phase} phase, fidelity {args.fidelity}"))
-        print("wind sampled and recorded, not applied (the passive scene has no wind component yet)")
         print(f"rows in {args.out}")
         for path in summary.get("plots", []):
             print(f"plot written to {path}")
