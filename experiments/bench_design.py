@@ -18,6 +18,13 @@ Sections (all at the rigid level, Table 8 captures of scenario I, scrambled Halt
     of each to reach adam's final objective from the paper design. Best designs re-checked on an
     independent batch (seed 1, ``--check-n`` cases).
 
+(5) ``two_phase``: m_w, F_f and the PD gain a_p on the two-phase objective (``phase="full"``:
+    tracking, capture event, passive phase at level rigid) over ``--full-n`` Table 3 cases of
+    ``--full-scenario``: adam (``--full-steps``) from the paper design (Table 4's a_p) and from a
+    weak gain (0.7 1/s), Nelder-Mead (``--full-nm-evals``) from the paper design; evaluations and
+    wall time to reach adam's best. Not in the default sections: it took
+    14 min on 2 busy cores (``--sections two_phase --keep`` adds it to an existing report).
+
 Every jitted function is warmed (compiled) before it is timed, so histories' wall times exclude
 compiling. Wall-clock times on a shared 2-core machine: load averages are recorded. Writes
 ``experiments/results/bench_design.{json,md,png}``. Usage:
@@ -54,7 +61,7 @@ from jaxcable.arresting.passive import SmoothingWidths
 from jaxcable.provenance import machine_info
 
 ROOT = Path(__file__).resolve().parent.parent
-SECTIONS = ("cost", "bias", "landscape", "optimise")
+SECTIONS = ("cost", "bias", "landscape", "optimise", "two_phase")
 WEAK_PENALTY = (10.0, 10.0, 10.0)
 FAST_LR = 0.5
 POOR_STARTS = {
@@ -68,7 +75,7 @@ POOR_STARTS = {
 def parse_args():
     p = argparse.ArgumentParser(description="design optimisation benchmark")
     p.add_argument("--quick", action="store_true")
-    p.add_argument("--sections", nargs="+", default=list(SECTIONS), choices=SECTIONS)
+    p.add_argument("--sections", nargs="+", default=[s for s in SECTIONS if s != "two_phase"], choices=SECTIONS)
     p.add_argument("--cost-n", nargs="+", type=int, default=[8, 32])
     p.add_argument("--checkpoints", type=int, default=64)
     p.add_argument("--repeats", type=int, default=5)
@@ -79,6 +86,10 @@ def parse_args():
     p.add_argument("--lr", type=float, default=0.2)
     p.add_argument("--nm-evals", type=int, default=60)
     p.add_argument("--t-end", type=float, default=1.2)
+    p.add_argument("--full-n", type=int, default=8, help="two_phase: cases in the batch")
+    p.add_argument("--full-scenario", default="I", choices=["I", "II", "III"], help="two_phase: Table 4 scenario")
+    p.add_argument("--full-steps", type=int, default=15, help="two_phase: adam steps")
+    p.add_argument("--full-nm-evals", type=int, default=30, help="two_phase: Nelder-Mead evaluations")
     p.add_argument("--keep", action="store_true", help="keep sections of an existing json not redone")
     p.add_argument("--replot", action="store_true")
     p.add_argument("--note", action="append", default=[], help="a note for the report (repeatable; replaces earlier notes)")
@@ -87,6 +98,7 @@ def parse_args():
     if args.quick:
         args.cost_n, args.repeats, args.bias_n, args.opt_n, args.check_n = [4], 2, 8, 4, 8
         args.steps, args.nm_evals = 5, 12
+        args.full_n, args.full_steps, args.full_nm_evals = 2, 2, 4
     return args
 
 
@@ -284,6 +296,84 @@ def section_optimise(args):
     )
 
 
+def section_two_phase(args):
+    """m_w, F_f and the PD gain a_p on the two-phase objective (tracking + capture + passive, rigid):
+    adam from the paper design (Table 4's a_p) and from a weak gain, Nelder-Mead from the paper
+    design; evaluations and wall time to reach adam's best from the paper design."""
+    pr = design_problem("m_w,F_f,a_p", n=args.full_n, scenario=args.full_scenario, t_end_s=args.t_end)
+    x_paper = paper_start(pr)
+    starts = {"paper": x_paper, "weak_gain": pr.space.from_dict({**pr.space.as_dict(x_paper), "a_p": 0.7})}
+    u = pr.space.to_unconstrained(x_paper)
+    _, c_grad, _ = _timed(lambda: objective_and_grad(pr, u), 1)
+    _, c_fwd, _ = _timed(lambda: objective_value(pr, u), 1)
+    runs = {}
+    for name, x0 in starts.items():
+        t = time.perf_counter()
+        h = optimise(pr, x0, steps=args.full_steps, learning_rate=args.lr)
+        runs[f"adam_{name}"] = h
+        b = h.best
+        print(f"two-phase adam from {name}: J {h.objective[0]:.4f} -> {h.objective[b]:.4f} at step {b}, x {h.x[b]}, "
+              f"success {h.success_rate[0]:.2f} -> {h.success_rate[b]:.2f}, {time.perf_counter() - t:.1f} s", flush=True)  # fmt: skip
+    t = time.perf_counter()
+    nm = nelder_mead(pr, x_paper, max_evaluations=args.full_nm_evals)
+    runs["nelder_mead_paper"] = nm
+    print(f"two-phase nelder-mead: best {nm.objective.min():.4f} after {len(nm.objective)} evaluations, {time.perf_counter() - t:.1f} s", flush=True)
+    target = float(runs["adam_paper"].objective.min())
+    reach = {}
+    for label in ("adam_paper", "nelder_mead_paper"):
+        r = runs[label].evaluations_to_reach(target)
+        reach[label] = None if r is None else dict(evaluations=r[0], wall_s=r[1])
+    rows = {}
+    for label, x in [("paper_design", np.asarray(x_paper))] + [(k, h.x[h.best]) for k, h in runs.items()]:
+        j, aux = objective_value(pr, pr.space.to_unconstrained(jnp.asarray(x)))
+        rows[label] = dict(design=pr.space.as_dict(x), objective=float(j), terms={k: float(v) for k, v in aux["terms"].items()},
+                           summary=criteria_summary(pr, aux))  # fmt: skip
+    return dict(
+        n=args.full_n,
+        scenario=args.full_scenario,
+        steps=args.full_steps,
+        lr=args.lr,
+        compile_s=dict(objective_and_grad=c_grad, objective_value=c_fwd),
+        capture_reference_m=float(pr.capture_reference_m),
+        target_objective=target,
+        reach=reach,
+        histories={k: h.as_json() for k, h in runs.items()},
+        rows=rows,
+        bounds=dict(lower=np.asarray(pr.space.lower).tolist(), upper=np.asarray(pr.space.upper).tolist()),
+    )
+
+
+def _md_two_phase(data):
+    o = data["two_phase"]
+    L = [
+        "## 6. Two-phase objective: m_w, F_f and the PD gain a_p",
+        "",
+        _provenance(o),
+        f"Scenario {o['scenario']}, {o['n']} Table 3 terminal-guidance cases with Table 4 wind, gust, delay and noise "
+        f"(scrambled Halton, seed 0); tracking with the rigid rocket, the capture event, {data['t_end_s']:g} s of the passive "
+        f"phase at level rigid; forward-mode gradients. Compile: objective + gradient {o['compile_s']['objective_and_grad']:.0f} s, "
+        f"objective {o['compile_s']['objective_value']:.0f} s. Capture criterion normalised by the centred capture's margin "
+        f"{o['capture_reference_m']:.3f} m; tracking error limit 1 m.",
+        "",
+        "| run | m_w [kg] | F_f [N] | a_p [1/s] | J | worst z / a / sigma | smallest capture margin [m] | largest tracking error [m] | success |",
+        "|---|---:|---:|---:|---:|---|---:|---:|---:|",
+    ]
+    for label, r in o["rows"].items():
+        d, h = r["design"], r["summary"]["hard"]
+        L.append(
+            f"| {label} | {d['m_w']:.0f} | {d['F_f']:.4g} | {d['a_p']:.3f} | {r['objective']:.4f} | "
+            f"{h['z_max_m']['worst']:.2f} m / {h['a_max_g']['worst']:.2f} g / {h['sigma_max_mpa']['worst']:.0f} MPa | "
+            f"{h['capture_margin_m']['worst']:.3f} | {h['tracking_error_m']['worst']:.3f} | {r['summary']['success_rate']:.0%} |"
+        )
+    L += ["", f"Evaluations and wall time (compiled) to reach adam's best from the paper design, J = {o['target_objective']:.4f}:", ""]
+    for label, r in o["reach"].items():
+        h = o["histories"][label]
+        L.append(f"* {label}: " + ("not reached" if r is None else f"{r['evaluations']} evaluations, {r['wall_s']:.1f} s")
+                 + f" (ran {len(h['objective'])} evaluations, {h['wall_s'][-1]:.1f} s)")  # fmt: skip
+    L.append("")
+    return L
+
+
 # ------------------------------------------------------------------------------------------------
 # Report
 # ------------------------------------------------------------------------------------------------
@@ -448,6 +538,8 @@ def write_md(data, path):
         for note in data["notes"]:
             L += [f"* {note}"]
         L.append("")
+    if "two_phase" in data:
+        L += _md_two_phase(data)
     path.write_text("\n".join(L) + "\n")
 
 
@@ -536,7 +628,7 @@ def main():
         command="python experiments/bench_design.py " + " ".join(a for a in __import__("sys").argv[1:]),
     )
     t0 = time.perf_counter()
-    fns = dict(cost=section_cost, bias=section_bias, landscape=section_landscape, optimise=section_optimise)
+    fns = dict(cost=section_cost, bias=section_bias, landscape=section_landscape, optimise=section_optimise, two_phase=section_two_phase)
     for s in args.sections:
         ts = time.perf_counter()
         load0 = machine_info()["load_average_1_5_15_min"]

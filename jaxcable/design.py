@@ -4,9 +4,14 @@ Arresting-cable paper, section II.B (the 1-DOF design: counterweight mass ``m_w`
 ``F_f`` through the groups ``m_t_bar``, ``F_t_bar`` of eqs 15-24) and section IV (success criteria
 ``z_max < 10 m``, ``a_max < 5 g``, ``sigma_max < 800 MPa``; Table 8 captured-state ranges). The paper
 picks ``m_w`` and ``F_f`` from the 1-DOF model (vertical, central capture, rigid cables) and then
-checks them by Monte Carlo. Here the same two numbers (and, once the two-phase scene exists, the
-PD gain ``a_p``) are optimised directly on the criteria of a batch of deviated captures simulated at
-a chosen fidelity (``rigid`` by default), with gradients through the diffrax solve.
+checks them by Monte Carlo. Here the same two numbers and the PD gain ``a_p`` (section II.A, eq 4;
+Table 4) are optimised directly on the criteria of a batch of deviated landings, with gradients
+through the diffrax solve: ``phase="passive"`` simulates Table 8 captured states in the passive
+scene at a chosen fidelity (``rigid`` by default); ``phase="full"`` simulates Table 3
+terminal-guidance states under Table 4 wind, gust, motor delay and noise through both phases of
+:mod:`jaxcable.arresting.two_phase` (tracking at the rigid level, the capture event, the passive
+phase at level ``rigid``), so the capture margin and the tracking error join the criteria. A set
+of variables with ``a_p`` needs ``phase="full"`` and gets it by default (:func:`default_phase`).
 
 Pieces
 ------
@@ -22,7 +27,10 @@ Pieces
 * :func:`optimise` (optax, adam by default) and :func:`nelder_mead` (scipy, derivative-free
   baseline on the same reparametrisation and objective); both return a :class:`DesignHistory`.
 * :func:`cvar` (exact, sort-based) and :func:`smooth_cvar` (sort-free, smooth).
-* :func:`design_main`: the ``jaxcable design`` command line.
+* :func:`optax_minimise` and :func:`nelder_mead_minimise`: the two loops for any objective on a
+  :class:`DesignSpace` (the line-throwing design of :mod:`jaxcable.line_design` uses them too).
+* :func:`design_main`: the ``jaxcable design`` command line (``--scene throw``: the line-throwing
+  launch design).
 
 The objective
 -------------
@@ -46,6 +54,17 @@ is ``1 - r``). With weights ``w`` (:class:`ObjectiveWeights`)::
 * The *penalties* are squared hinges (C^1) on the batch mean, so every violating case pulls.
 * The *design cost* is a linear cost of the variables relative to their upper bounds (e.g. the
   counterweight's mass); off by default.
+
+``phase="full"`` adds two normalised criteria per landing (``CAPTURE_CRITERIA``), with their own
+weights ``capture_criteria`` (default 0.25 each in the expected cost) and ``capture_penalty``
+(default 100 each)::
+
+    r_capture  = 1 - m / m_ref     m: soft minimum of the four hooks' capture margins [m]
+                                   (width 0.02 m); m_ref: the margin of a centred vertical capture,
+                                   1.405 m (:func:`capture_reference`); r < 1 <=> captured
+    r_tracking = e / e_tol         e: true tracking error at capture [m]; e_tol = 1 m
+
+``"worst"`` as the tail criterion then takes the largest of the five.
 
 The expected cost and the penalties pull in different directions (a shorter stroke needs more
 friction, which raises the deceleration and the cable load); the weights set the compromise.
@@ -110,10 +129,41 @@ Readings, corrections and measurements
   bound of m_w is 300 kg to keep batches affordable; a batch under ``vmap`` runs in lockstep, so
   its cost is set by its slowest case.
 * **a_p** (the PD law's proportional gain [1/s], eq 4 ``v_p = a_p e + e_dot``; eq 11 asks
-  ``a_p >= 20 / t_c``; Table 4: 2, 5, 6) acts only in the active-tracking phase: it is accepted as a
-  variable name, and a problem using it needs ``phase="full"`` (the two-phase scene), which is not
-  wired here yet; both raise a clear error. The plumbing (bounds, reparametrisation, the setter
-  table ``_PASSIVE_SETTERS`` to be joined by a two-phase one) is in place.
+  ``a_p >= 20 / t_c``; Table 4: 2, 5, 6) acts only in the active-tracking phase, so it needs
+  ``phase="full"``: each case runs :func:`~jaxcable.arresting.two_phase.two_phase_outputs` with the
+  scene of the two-phase sweeps (:class:`~jaxcable.arresting.two_phase.TwoPhaseCaseFunction`, same
+  per-case noise and gust keys as ``jaxcable sweep --phase full``). The "paper design" of a full
+  problem adds Table 4's a_p for its scenario. Restrictions, each from two_phase.py: the passive
+  phase runs at level ``rigid`` (the ale/full levels mesh their cables on the host); the tracking
+  phase runs at two_phase.py's fixed tolerance (rtol 1e-6) whatever ``rtol`` says (``rtol`` sets
+  the passive phase's); gradients are forward mode only (reverse mode of the two-phase program
+  fails on this jaxlib: "no registered implementation for lapack_dgetrf_ffi").
+* **Which tracking error.** Section IV.A's criterion is that the tracking error "approaches zero";
+  two_phase.py reports the *measured* error (frame centre vs. the noisy filtered target) at the
+  last saved sample before capture and its ``tracking_ok`` holds it below 1 m. That value jumps
+  with the save grid and the noise samples, so the objective uses the *true* error at the capture
+  event, ``|frame centre - target point of the true rocket state|``: continuous in the design, and
+  the miss distance the capture actually depends on; its hard value is the same number.
+* **Wind after capture.** The passive phase of a full problem keeps the tracking phase's wind
+  and the free rocket's aerodynamics (two_phase.py's ``passive_air``, default True here too;
+  ``DesignProblem.passive_air=False``: still air after capture).
+* **Measured**: the slow test (scenario III, 2 cases, 0.5 s after capture, passive rtol 1e-8:
+  compile, value and gradient, six central differences, ``jaxcable design --steps 1``) took 61 s
+  on the 2-core machine at load ~4; the gradient agrees with central differences to 1 % (the
+  tracking phase's rtol 1e-6 sets that tolerance). Before the wind was kept after capture, the
+  first objective-and-gradient call (scenario III, 2 cases, 1 s, rtol 1e-6) took 176 s under load
+  7-10 (63 s of CPU), a compiled call 1.2 s.
+  ``jaxcable design --vars m_w,F_f,a_p --n 4 --steps 2`` (scenario I, 1.2 s): 376 s wall under
+  load 10 (98 s of CPU), J 32.87 -> 31.01, a_p 2 -> 2.27.
+* **Optimising a_p** (``experiments/bench_design.py --sections two_phase``, scenario I, 8 cases):
+  at the paper design (a_p = 2, Table 4) the worst capture margin is 0.01 m and the worst true
+  tracking error 1.27 m (eq 8's unit motor bandwidth: see two_phase.py). Adam (16 steps, lr 0.2)
+  raised a_p to 4.0: worst margin 0.25 m, tracking error 1.0 m, J 33.7 -> 28.2; Nelder-Mead (30
+  evaluations) went to a_p = 8.7, m_w = 302 kg, F_f = 2.58e5 N: margin 0.73 m, error 0.46 m, and
+  the passive criteria of the rigid-level optimum above (worst a_max 6.1 g, z_max 11.4 m), J = 5.2;
+  no design met all criteria (a_max, as for m_w and F_f alone). Nelder-Mead reached adam's best in
+  6 evaluations (24 s) against adam's 7 (104 s): with three variables, the derivative-free search
+  still wins on this objective (its penalty terms make adam's fixed-size steps slow).
 """
 
 from __future__ import annotations
@@ -142,6 +192,8 @@ from .arresting.passive import (
 )
 
 __all__ = [
+    "CAPTURE_CRITERIA",
+    "CONDITIONS",
     "CRITERIA",
     "DEFAULT_BOUNDS",
     "DESIGN_VARIABLES",
@@ -150,16 +202,20 @@ __all__ = [
     "DesignSpace",
     "ObjectiveWeights",
     "batch_criteria",
+    "capture_reference",
     "criteria_summary",
     "cvar",
     "design_main",
+    "default_phase",
     "design_problem",
     "nelder_mead",
+    "nelder_mead_minimise",
     "objective",
     "objective_terms",
     "objective_and_grad",
     "objective_value",
     "optimise",
+    "optax_minimise",
     "paper_start",
     "smooth_cvar",
 ]
@@ -185,9 +241,17 @@ DEFAULT_BOUNDS = {
 CRITERIA = ("z_max_m", "a_max_g", "sigma_max_mpa")
 """The three success criteria of section IV.A, in the order used by every (3,) weight array."""
 
-TAIL_CRITERIA = ("z_max", "a_max", "sigma_max", "worst")
+CAPTURE_CRITERIA = ("capture_margin_m", "tracking_error_m")
+"""The two tracking-phase criteria of a ``phase="full"`` problem, in the order of every (2,) weight
+array: the smallest capture margin of the four hooks [m] (met when > 0; larger is better) and the
+true tracking error at capture [m] (met when below the tolerance, 1 m)."""
+
+TAIL_CRITERIA = ("z_max", "a_max", "sigma_max", "worst", "capture_margin", "tracking_error")
 GRADIENT_MODES = ("forward", "reverse")
 PHASES = ("passive", "full")
+# the five non-state uncertain parameters of Table 2 that a phase="full" case needs besides its
+# terminal-guidance state (wind, gust, motor delay, measurement noise)
+CONDITIONS = ("wind_angle_deg", "wind_speed_m_s", "gust_intensity", "motor_delay_s", "noise_rms_m")
 
 
 def _float_array(value):
@@ -212,21 +276,25 @@ class DesignSpace(eqx.Module):
     """The chosen design variables, their bounds, and the scaled-logistic reparametrisation.
 
     ``x = lower + (upper - lower) * sigmoid(u)`` maps any ``u`` in R^k into the open box; the
-    optimisers work in ``u``. Build one with :meth:`from_names`.
+    optimisers work in ``u``. Build one with :meth:`from_names`. The space is generic: ``catalogue``
+    names the variables one may choose (the buffer design's ``DESIGN_VARIABLES`` by default; the
+    line-throwing design of :mod:`jaxcable.line_design` passes its own).
     """
 
     names: tuple = eqx.field(static=True)
-    """names of the variables, a subset of ``DESIGN_VARIABLES`` in the user's order"""
+    """names of the variables, a subset of ``catalogue`` in the user's order"""
     lower: jax.Array = eqx.field(converter=_float_array)
-    """lower bound of each variable, in its unit (kg, N, 1/s), shape (k,)"""
+    """lower bound of each variable, in its unit (kg, N, 1/s, ...), shape (k,)"""
     upper: jax.Array = eqx.field(converter=_float_array)
     """upper bound of each variable, in its unit, shape (k,)"""
+    catalogue: tuple = eqx.field(static=True, default=tuple(DESIGN_VARIABLES))
+    """the names one may choose"""
 
     def __check_init__(self):
         if len(self.names) == 0:
             raise ValueError("names must name at least one design variable, got none")
         for name in self.names:
-            check_choice("design variable", name, DESIGN_VARIABLES)
+            check_choice("design variable", name, self.catalogue)
         if len(set(self.names)) != len(self.names):
             raise ValueError(f"names has a repeated design variable: {self.names}")
         k = len(self.names)
@@ -245,26 +313,31 @@ class DesignSpace(eqx.Module):
                 raise ValueError(
                     f"bounds of {name} are inverted or empty: lower = {lo[i]:g} must be < upper = {hi[i]:g}"
                 )
+            # every variable of both catalogues is a positive physical quantity; a brake may be off
             if name == "F_f":
                 check_positive("lower bound of F_f [N]", lo[i], allow_zero=True)
             else:
                 check_positive(f"lower bound of {name}", lo[i])
 
     @classmethod
-    def from_names(cls, names, bounds: dict | None = None) -> "DesignSpace":
+    def from_names(cls, names, bounds: dict | None = None, *, variables=None, default_bounds=None) -> "DesignSpace":
         """``names``: a sequence or a comma-separated string (``"m_w,F_f"``); ``bounds``:
-        ``{name: (lower, upper)}`` overriding ``DEFAULT_BOUNDS`` for some names."""
+        ``{name: (lower, upper)}`` overriding the default bounds for some names. ``variables`` and
+        ``default_bounds``: the catalogue and its bounds (default ``DESIGN_VARIABLES``,
+        ``DEFAULT_BOUNDS``)."""
+        variables = DESIGN_VARIABLES if variables is None else variables
+        default_bounds = DEFAULT_BOUNDS if default_bounds is None else default_bounds
         if isinstance(names, str):
             names = [n.strip() for n in names.split(",") if n.strip()]
         names = tuple(names)
         bounds = {} if bounds is None else dict(bounds)
         for name in bounds:
-            check_choice("design variable in bounds", name, DESIGN_VARIABLES)
+            check_choice("design variable in bounds", name, variables)
         for name in names:
-            check_choice("design variable", name, DESIGN_VARIABLES)
-        lo = [float(bounds.get(n, DEFAULT_BOUNDS[n])[0]) for n in names]
-        hi = [float(bounds.get(n, DEFAULT_BOUNDS[n])[1]) for n in names]
-        return cls(names=names, lower=np.array(lo), upper=np.array(hi))
+            check_choice("design variable", name, variables)
+        lo = [float(bounds.get(n, default_bounds[n])[0]) for n in names]
+        hi = [float(bounds.get(n, default_bounds[n])[1]) for n in names]
+        return cls(names=names, lower=np.array(lo), upper=np.array(hi), catalogue=tuple(variables))
 
     @property
     def size(self) -> int:
@@ -399,6 +472,15 @@ class ObjectiveWeights(eqx.Module):
     the optimiser traded a 19 % stroke violation for lower decelerations; bench_design.md)"""
     margin: jax.Array = eqx.field(converter=_float_array, default=0.0)
     """fractional margin the penalties demand below each limit (0.02: r < 0.98) [-], shape ()"""
+    capture_criteria: jax.Array = eqx.field(converter=_float_array, default=(0.25, 0.25))
+    """weights of the normalised tracking-phase criteria (``CAPTURE_CRITERIA``: capture margin,
+    tracking error) inside the expected cost [-], shape (2,); used by ``phase="full"`` problems only.
+    A quarter each: together they weigh half as much as the three passive criteria (which sum to 1),
+    so a design is not bought with a worse arrest, yet the gain a_p (which acts on the passive
+    criteria only through the captured state) has a term of its own"""
+    capture_penalty: jax.Array = eqx.field(converter=_float_array, default=(100.0, 100.0))
+    """weights of the squared violation penalties of the tracking-phase criteria [-], shape (2,)
+    (``phase="full"`` only): as ``penalty``: a miss is a failed landing"""
     design_cost: jax.Array | None = None
     """weight of each variable's ``x_k / upper_k`` in the design cost [-], shape (k,); None: 0"""
     tail_criterion: str = eqx.field(static=True, default="a_max")
@@ -416,6 +498,11 @@ class ObjectiveWeights(eqx.Module):
             if v.shape != (3,):
                 raise ValueError(f"{name} must have shape (3,) (z, a, sigma), got {v.shape}")
             check_positive(name, v, allow_zero=True)
+        for name in ("capture_criteria", "capture_penalty"):
+            v = getattr(self, name)
+            if v.shape != (2,):
+                raise ValueError(f"{name} must have shape (2,) (capture margin, tracking error), got {v.shape}")
+            check_positive(name, v, allow_zero=True)
         check_positive("tail_width", self.tail_width)
         _check_alpha(self.alpha)
         if self.design_cost is not None:
@@ -424,20 +511,48 @@ class ObjectiveWeights(eqx.Module):
 
 class DesignProblem(eqx.Module):
     """Everything the objective depends on except the design: the variables and bounds, the fixed
-    QMC batch of captures, the fixed parts of the scene, the limits, widths, weights and the solver
-    settings. Build one with :func:`design_problem`."""
+    QMC batch of cases, the fixed parts of the scene, the limits, widths, weights and the solver
+    settings. Build one with :func:`design_problem`.
+
+    ``phase="passive"``: each case is a captured state (Table 8) and runs the passive scene at
+    ``fidelity``. ``phase="full"``: each case is a terminal-guidance state (Table 3) with its wind,
+    gust, motor delay and noise (``conditions``, Table 4) and runs the two-phase landing of
+    :func:`jaxcable.arresting.two_phase.two_phase_outputs` (tracking with the rigid rocket, then the
+    passive phase at level ``rigid``); the capture margin and the tracking error join the criteria."""
 
     space: DesignSpace
     captures: CaptureState
-    """the batch: every field an array of shape (n,)"""
+    """the batch: every field an array of shape (n,); captured states (passive) or terminal-guidance
+    states (full: their ``z_m`` and ``vz_m_s`` are replaced by the scenario's ``h`` and ``-h / t_c``)"""
     buffer: BufferDevice
     """fields not designed (transfer rate, brake smoothing width) and the defaults of the rest"""
     layout: ArrestingLayout
     weights: ObjectiveWeights = ObjectiveWeights()
     limits: LandingCriteria = LandingCriteria()
     widths: SmoothingWidths = SmoothingWidths()
+    conditions: dict | None = None
+    """``phase="full"``: ``{name: (n,) array}`` for the five names of ``CONDITIONS`` (wind angle
+    [deg], steady wind speed [m/s], gust intensity [-], motor delay [s], noise RMS [m]); None for
+    ``phase="passive"``"""
+    gain_per_s: jax.Array = eqx.field(converter=_float_array, default=2.0)
+    """PD gain a_p [1/s] used when ``a_p`` is not a design variable (``phase="full"``), shape ()"""
+    tracking_tolerance_m: jax.Array = eqx.field(converter=_float_array, default=1.0)
+    """limit of the tracking error at capture [m] (two_phase.py's reading of "approaches zero"), shape ()"""
+    capture_reference_m: jax.Array = eqx.field(converter=_float_array, default=1.0)
+    """capture margin of a centred, vertical capture [m] (the throat's half-width less the
+    clearance; :func:`design_problem` computes it from the hook geometry), shape (): the capture
+    criterion is normalised as ``r = 1 - margin / capture_reference_m`` (0: centred, 1: the edge)"""
+    margin_width_m: jax.Array = eqx.field(converter=_float_array, default=0.02)
+    """width of the soft minimum over the four hooks' capture margins [m], shape ()"""
+    passive_air: bool = eqx.field(static=True, default=True)
+    """``phase="full"``: the passive phase keeps the tracking phase's wind and the rocket's
+    aerodynamics after capture (two_phase.py's default); False: still air after capture"""
     fidelity: str = eqx.field(static=True, default="rigid")
     phase: str = eqx.field(static=True, default="passive")
+    scenario: str = eqx.field(static=True, default="I")
+    """Table 4 scenario (``phase="full"``: h, t_c and the default a_p)"""
+    seed: int = eqx.field(static=True, default=0)
+    """seed of the per-case noise and gust keys (``phase="full"``; as in the two-phase sweeps)"""
     t_end_s: float = eqx.field(static=True, default=1.2)
     """simulated time after capture [s]: covers the stop (~0.75 s centrally) and the first rebound"""
     rtol: float = eqx.field(static=True, default=1e-6)
@@ -452,29 +567,81 @@ class DesignProblem(eqx.Module):
         check_choice("fidelity", self.fidelity, tuple(k for k in FIDELITY_LEVELS if k != "1dof"))
         check_choice("phase", self.phase, PHASES)
         check_choice("gradient", self.gradient, GRADIENT_MODES)
+        check_choice("scenario", self.scenario, ("I", "II", "III"))
         check_positive("t_end_s", self.t_end_s)
         check_positive("rtol", self.rtol)
         check_positive("atol", self.atol)
+        check_positive("gain_per_s", self.gain_per_s)
+        check_positive("tracking_tolerance_m", self.tracking_tolerance_m)
+        check_positive("capture_reference_m", self.capture_reference_m)
+        check_positive("margin_width_m", self.margin_width_m)
         for name in self.space.names:
+            check_choice("design variable", name, DESIGN_VARIABLES)
             needs = DESIGN_VARIABLES[name][1]
             if needs == "full" and self.phase != "full":
                 raise ValueError(
                     f"design variable {name!r} ({DESIGN_VARIABLES[name][0]}) acts in the active-tracking "
-                    f"phase: it needs phase='full' (the two-phase scene), not available yet; got phase={self.phase!r}"
+                    f"phase: it needs phase='full' (the two-phase scene); got phase={self.phase!r}"
                 )
         if self.phase == "full":
-            raise NotImplementedError(
-                "phase='full' (the two-phase active-tracking + passive scene) is not available yet; use phase='passive'"
-            )
+            if self.fidelity != "rigid":
+                raise ValueError(
+                    f"fidelity {self.fidelity!r}: phase='full' design runs at fidelity 'rigid' (the ale/full "
+                    "levels mesh their cables on the host from the captured state, outside the traced objective)"
+                )
+            if self.gradient != "forward":
+                raise ValueError(
+                    f"gradient {self.gradient!r}: phase='full' needs gradient='forward' (reverse mode of the "
+                    "two-phase program fails on this jaxlib: 'no registered implementation for lapack_dgetrf_ffi')"
+                )
+            if self.conditions is None or set(self.conditions) != set(CONDITIONS):
+                got = None if self.conditions is None else sorted(self.conditions)
+                raise ValueError(f"phase='full' needs conditions with the entries {list(CONDITIONS)}, got {got}")
+        elif self.conditions is not None:
+            raise ValueError("conditions (wind, delay, noise per case) belong to phase='full'; got them with phase='passive'")
         if self.weights.design_cost is not None and self.weights.design_cost.shape != (self.space.size,):
             raise ValueError(
                 f"weights.design_cost must have shape ({self.space.size},) for {self.space.names}, "
                 f"got {self.weights.design_cost.shape}"
             )
+        if self.phase != "full" and self.weights.tail_criterion in ("capture_margin", "tracking_error"):
+            raise ValueError(
+                f"weights.tail_criterion {self.weights.tail_criterion!r} is a tracking-phase criterion: it needs phase='full'"
+            )
 
     @property
     def n_cases(self) -> int:
         return int(self.captures.x_m.shape[0])
+
+    @property
+    def criteria_names(self) -> tuple:
+        """The criteria this problem reports: ``CRITERIA`` (+ ``CAPTURE_CRITERIA`` for phase full)."""
+        return CRITERIA + (CAPTURE_CRITERIA if self.phase == "full" else ())
+
+
+def default_phase(variables) -> str:
+    """The phase a set of design variables needs: ``full`` when one of them acts in the tracking
+    phase (``a_p``), else ``passive``."""
+    names = DesignSpace.from_names(variables).names
+    return "full" if any(DESIGN_VARIABLES[n][1] == "full" for n in names) else "passive"
+
+
+def capture_reference(layout: ArrestingLayout | None = None) -> float:
+    """Capture margin [m] of a centred, vertical rocket with the frame at rest at the centre: the
+    smallest of the four hooks' margins of :meth:`TrackingScene.capture_margins` at t = 0 (the
+    horizontal geometry does not depend on the height)."""
+    from .arresting.two_phase import tracking_scene
+
+    if layout is None and _CAPTURE_REFERENCE:  # building the scene eagerly takes seconds: memo
+        return _CAPTURE_REFERENCE[0]
+    scene = tracking_scene(CaptureState(), layout=layout, wind_speed_m_s=0.0, noise_rms_m=0.0)
+    value = float(jnp.min(scene.capture_margins(scene.initial_state())))
+    if layout is None:
+        _CAPTURE_REFERENCE.append(value)
+    return value
+
+
+_CAPTURE_REFERENCE = []  # the default layout's capture reference, once computed
 
 
 def design_problem(
@@ -486,31 +653,48 @@ def design_problem(
     *,
     bounds: dict | None = None,
     weights: ObjectiveWeights | None = None,
-    phase: str = "passive",
+    phase: str | None = None,
     buffer: BufferDevice | None = None,
     layout: ArrestingLayout | None = None,
     **settings,
 ) -> DesignProblem:
-    """A design problem over ``n`` Halton captures of ``scenario`` (Table 8 ranges for the passive
-    phase, :func:`jaxcable.arresting.uncertainty.halton_samples`), deterministic for ``seed``.
-    ``settings`` go to :class:`DesignProblem` (``t_end_s``, ``rtol``, ``gradient``, ...)."""
-    from .arresting.uncertainty import captures_from_samples, halton_samples
+    """A design problem over ``n`` Halton cases of ``scenario``, deterministic for ``seed``
+    (:func:`jaxcable.arresting.uncertainty.halton_samples`).
+
+    ``phase``: ``"passive"`` (Table 8 captured states, passive scene at ``fidelity``), ``"full"``
+    (Table 3 terminal-guidance states with Table 4 wind, delay and noise; two-phase landing at level
+    rigid) or None (default): ``"full"`` when ``a_p`` is a design variable, else ``"passive"``
+    (:func:`default_phase`). ``settings`` go to :class:`DesignProblem` (``t_end_s``, ``rtol``,
+    ``gradient``, ``gain_per_s``, ...)."""
+    from .arresting.uncertainty import captures_from_samples, halton_samples, scenario_settings
 
     space = DesignSpace.from_names(variables, bounds)
     if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, np.integer)) or n < 1:
         raise ValueError(f"n must be a positive integer (captures in the batch), got {n!r}")
+    phase = default_phase(space.names) if phase is None else phase
     check_choice("phase", phase, PHASES)
     for name in space.names:  # the clear a_p / phase error before any sampling
         if DESIGN_VARIABLES[name][1] == "full" and phase != "full":
             raise ValueError(
                 f"design variable {name!r} ({DESIGN_VARIABLES[name][0]}) acts in the active-tracking phase: "
-                f"it needs phase='full' (the two-phase scene), not available yet; got phase={phase!r}"
+                f"it needs phase='full' (the two-phase scene); got phase={phase!r}"
             )
+    if phase == "full":  # the clear errors before the (slow, eager) capture reference
+        if fidelity != "rigid":
+            raise ValueError(f"fidelity {fidelity!r}: phase='full' design runs at fidelity 'rigid'")
+        if settings.get("gradient", "forward") != "forward":
+            raise ValueError(
+                f"gradient {settings['gradient']!r}: phase='full' needs gradient='forward' (reverse mode of "
+                "the two-phase program fails on this jaxlib: 'no registered implementation for lapack_dgetrf_ffi')"
+            )
+    samples = halton_samples(int(n), scenario=scenario, phase=phase, seed=seed)
+    captures = captures_from_samples(samples)
     if phase == "full":
-        raise NotImplementedError(
-            "phase='full' (the two-phase active-tracking + passive scene) is not available yet; use phase='passive'"
-        )
-    captures = captures_from_samples(halton_samples(int(n), scenario=scenario, phase=phase, seed=seed))
+        layout_given = layout is not None
+        layout = ArrestingLayout() if layout is None else layout
+        settings.setdefault("conditions", {k: jnp.asarray(samples[k]) for k in CONDITIONS})
+        settings.setdefault("gain_per_s", scenario_settings(scenario)["a_p"])
+        settings.setdefault("capture_reference_m", capture_reference(layout if layout_given else None))
     if fidelity in LEVEL_DEFAULTS:  # the level's measured tolerances unless given
         settings.setdefault("rtol", LEVEL_DEFAULTS[fidelity][1])
         settings.setdefault("atol", settings["rtol"])
@@ -522,6 +706,8 @@ def design_problem(
         weights=ObjectiveWeights() if weights is None else weights,
         fidelity=fidelity,
         phase=phase,
+        scenario=scenario,
+        seed=int(seed),
         **settings,
     )
 
@@ -529,11 +715,13 @@ def design_problem(
 def paper_start(problem: DesignProblem) -> jax.Array:
     """The paper's section II.B design as a point of ``problem.space``: ``m_w``, ``F_f`` of
     :func:`jaxcable.arresting.one_dof.paper_design` (m_t_bar = 2, F_t_bar of eq 19; 1388.9 kg,
-    3.0886e5 N); a variable other than those takes the middle of its bounds."""
+    3.0886e5 N), and ``a_p`` of Table 4 for the problem's scenario (``problem.gain_per_s``); a
+    variable other than those takes the middle of its bounds."""
     from .arresting.one_dof import paper_design
 
     p = paper_design()
-    known = {"m_w": float(p.m_w), "F_f": float(p.F_f)}
+    # a_p: Table 4's gain of the problem's scenario (2, 5, 6 1/s for I, II, III)
+    known = {"m_w": float(p.m_w), "F_f": float(p.F_f), "a_p": float(problem.gain_per_s)}
     sp = problem.space
     mid = 0.5 * (np.asarray(sp.lower) + np.asarray(sp.upper))
     return sp.from_dict({n: known.get(n, float(mid[i])) for i, n in enumerate(sp.names)})
@@ -543,23 +731,29 @@ def paper_start(problem: DesignProblem) -> jax.Array:
 # Simulation of the batch and the objective
 # ------------------------------------------------------------------------------------------------
 
-# How each design variable enters the passive scene (``a_p`` enters the controller of the two-phase
-# scene; DesignProblem refuses it before it gets here).
+# How each design variable enters the buffer devices; ``a_p`` enters the controller of the
+# two-phase scene (:func:`_gain`).
 _PASSIVE_SETTERS = {
     "m_w": lambda buffer, v: eqx.tree_at(lambda b: b.counterweight_mass_kg, buffer, v),
     "F_f": lambda buffer, v: eqx.tree_at(lambda b: b.brake_force_N, buffer, v),
 }
 
 
-def _scene(problem: DesignProblem, capture: CaptureState, x):
+def _buffer(problem: DesignProblem, x):
     buffer = problem.buffer
     for i, name in enumerate(problem.space.names):
-        if name not in _PASSIVE_SETTERS:  # pragma: no cover - refused by DesignProblem
-            raise NotImplementedError(f"design variable {name!r} needs phase='full', not available yet")
-        buffer = _PASSIVE_SETTERS[name](buffer, x[i])
-    return passive_landing_scene(
-        problem.fidelity, capture, problem.layout, buffer, t_end_s=problem.t_end_s
-    )
+        if name in _PASSIVE_SETTERS:
+            buffer = _PASSIVE_SETTERS[name](buffer, x[i])
+    return buffer
+
+
+def _gain(problem: DesignProblem, x):
+    names = problem.space.names
+    return x[names.index("a_p")] if "a_p" in names else problem.gain_per_s
+
+
+def _scene(problem: DesignProblem, capture: CaptureState, x):
+    return passive_landing_scene(problem.fidelity, capture, problem.layout, _buffer(problem, x), t_end_s=problem.t_end_s)
 
 
 def _one_case(problem: DesignProblem, capture, x, adjoint):
@@ -579,8 +773,52 @@ def _one_case(problem: DesignProblem, capture, x, adjoint):
     return dict(smooth=smooth, hard=hard, status=res.status, num_steps=res.num_steps)
 
 
+def _one_two_phase_case(problem: DesignProblem, terminal, conditions, x, adjoint):
+    """One two-phase landing (phase full): tracking from the terminal-guidance state under the
+    case's wind, gust, delay and noise, the capture event, then the passive phase (level rigid).
+
+    The scene is built by the sweeps' :class:`TwoPhaseCaseFunction` (same per-case noise and gust
+    keys as ``jaxcable sweep --phase full``). Criteria: the passive three (soft maxima with
+    ``problem.widths``) and the tracking two: the capture margin (hard: the smallest of the four
+    hooks'; smooth: their soft minimum, width ``margin_width_m``) and the *true* tracking error at
+    capture, ``|frame centre - target of the true rocket state|`` at the event (continuous in the
+    design: no noise sample and no save-grid index enters it), hard = smooth."""
+    from .arresting.two_phase import TwoPhaseCaseFunction, _event_occurred, two_phase_outputs
+    from .arresting.uncertainty import UNCERTAIN_PARAMETERS
+
+    buffer = _buffer(problem, x)
+    case_fn = TwoPhaseCaseFunction(
+        buffer=buffer, layout=problem.layout, gain_per_s=_gain(problem, x), scenario=problem.scenario,
+        seed=problem.seed, t_end_s=problem.t_end_s,
+    )  # fmt: skip
+    params = {k: getattr(terminal, k) for k in UNCERTAIN_PARAMETERS[:10]} | dict(conditions)
+    scene = case_fn.scene(params)
+    out = two_phase_outputs(
+        scene, "rigid", buffer, passive_t_end_s=problem.t_end_s, tracking_tolerance_m=problem.tracking_tolerance_m,
+        margin_width_m=problem.margin_width_m, criteria=problem.limits, keep_histories=True, adjoint=adjoint,
+        solver_settings={"rigid": ("tsit5", problem.rtol, problem.atol, problem.max_steps)},
+        passive_air=problem.passive_air,
+    )  # fmt: skip
+    land, track = out["passive"], out["tracking"]
+    final = track.final_state
+    x_true, _ = scene.rocket.head_and_bottom_world(final.rocket)
+    from .arresting.control import target_point
+
+    error = jnp.linalg.norm(scene.frame_centre(final) - target_point(x_true[0], x_true[1]))
+    smooth = dict(smooth_landing_outputs(land.ts, land.probes, problem.widths))
+    smooth["capture_margin_m"] = out["smooth_capture_margin_m"]
+    smooth["tracking_error_m"] = error
+    hard = {k: out[k] for k in CRITERIA}
+    hard["capture_margin_m"] = out["capture_margin_m"]
+    hard["tracking_error_m"] = error
+    status = jnp.where(_event_occurred(out["tracking_status"]), out["passive_status"], out["tracking_status"])
+    return dict(smooth=smooth, hard=hard, status=status, num_steps=out["tracking_steps"] + out["passive_steps"])
+
+
 def _batch(problem: DesignProblem, x, adjoint):
-    # one scene per capture; the batch is a vmap over the capture (physics handles one case)
+    # one scene per case; the batch is a vmap over the cases (physics handles one case)
+    if problem.phase == "full":
+        return jax.vmap(lambda c, w: _one_two_phase_case(problem, c, w, x, adjoint))(problem.captures, problem.conditions)
     return jax.vmap(lambda c: _one_case(problem, c, x, adjoint))(problem.captures)
 
 
@@ -598,23 +836,38 @@ def _limits(problem):
 
 
 def _normalised(problem, criteria):
-    """(n, 3) criteria / limits from a dict of (n,) arrays keyed by ``CRITERIA``."""
-    return jnp.stack([criteria[k] for k in CRITERIA], axis=1) / _limits(problem)
+    """(n, c) normalised criteria ``r`` (met when r < 1) from a dict of (n,) arrays: the passive
+    three divided by their limits (c = 3); for phase full also ``1 - capture margin / reference``
+    and ``tracking error / tolerance`` (c = 5, ``problem.criteria_names``' order)."""
+    r = jnp.stack([criteria[k] for k in CRITERIA], axis=1) / _limits(problem)
+    if problem.phase != "full":
+        return r
+    capture = 1.0 - criteria["capture_margin_m"] / problem.capture_reference_m
+    tracking = criteria["tracking_error_m"] / problem.tracking_tolerance_m
+    return jnp.concatenate([r, capture[:, None], tracking[:, None]], axis=1)
 
 
 def objective_terms(problem: DesignProblem, x, smooth) -> dict:
     """The objective's terms from the smooth criteria ``smooth`` (dict of (n,) arrays) at design
-    ``x`` (k,): ``expected``, ``tail``, ``penalty``, ``design_cost`` and their weighted ``total``."""
+    ``x`` (k,): ``expected``, ``tail``, ``penalty``, ``design_cost`` and their weighted ``total``.
+    For phase full the tracking-phase criteria enter the expected cost and the penalties with the
+    weights ``capture_criteria`` and ``capture_penalty``."""
     w = problem.weights
-    r = _normalised(problem, smooth)  # (n, 3)
-    expected = jnp.mean(r @ w.criteria)
-    tail_values = jnp.max(r, axis=1) if w.tail_criterion == "worst" else r[:, TAIL_CRITERIA.index(w.tail_criterion)]
+    r = _normalised(problem, smooth)  # (n, c)
+    full = problem.phase == "full"
+    criteria_w = jnp.concatenate([w.criteria, w.capture_criteria]) if full else w.criteria
+    penalty_w = jnp.concatenate([w.penalty, w.capture_penalty]) if full else w.penalty
+    expected = jnp.mean(r @ criteria_w)
+    if w.tail_criterion == "worst":
+        tail_values = jnp.max(r, axis=1)
+    else:  # TAIL_CRITERIA minus "worst" follows the column order of r
+        tail_values = r[:, [c for c in TAIL_CRITERIA if c != "worst"].index(w.tail_criterion)]
     if w.tail_form == "smooth":
         tail = smooth_cvar(tail_values, w.alpha, w.tail_width)
     else:
         tail = cvar(tail_values, w.alpha)
     violation = jnp.maximum(r - 1.0 + w.margin, 0.0)
-    penalty = jnp.sum(w.penalty * jnp.mean(violation**2, axis=0))
+    penalty = jnp.sum(penalty_w * jnp.mean(violation**2, axis=0))
     if w.design_cost is None:
         design_cost = jnp.zeros(())
     else:
@@ -667,22 +920,42 @@ def batch_criteria(problem: DesignProblem, x):
     return _batch(problem, jnp.asarray(x, dtype=float), None)
 
 
+def _hard_ok(problem, aux):
+    """(n, c) bool: each case's hard criteria met (``problem.criteria_names``' order)."""
+    r = np.asarray(_normalised(problem, {k: np.asarray(v) for k, v in aux["hard"].items()}))
+    return r < 1.0
+
+
+def _worst(name, values):
+    # the capture margin is a margin (larger is better): its worst case is the minimum
+    return float(np.min(values)) if name == "capture_margin_m" else float(np.max(values))
+
+
+def _limit_of(problem, name):
+    lim = problem.limits
+    return dict(
+        z_max_m=lim.z_max_m, a_max_g=lim.a_max_g, sigma_max_mpa=lim.sigma_max_mpa,
+        capture_margin_m=0.0, tracking_error_m=float(problem.tracking_tolerance_m),
+    )[name]  # fmt: skip
+
+
 def criteria_summary(problem: DesignProblem, aux) -> dict:
     """JSON-able summary of one batch evaluation (an ``aux`` of :func:`objective` or the output of
     :func:`batch_criteria`): for ``hard`` and ``smooth`` criteria the worst case and the mean, the
-    worst margin ``1 - c / limit``; per-criterion and overall success rates (hard criteria);
-    solver failures."""
-    lim = dict(zip(CRITERIA, np.asarray(_limits(problem))))
+    worst margin (``1 - c / limit``; for the capture margin the smallest margin itself [m]);
+    per-criterion and overall success rates (hard criteria); solver failures."""
     out = {}
     for kind in ("hard", "smooth"):
         d = {}
-        for k in CRITERIA:
+        for k in problem.criteria_names:
             v = np.asarray(aux[kind][k], dtype=float)
-            d[k] = dict(worst=float(np.max(v)), mean=float(np.mean(v)), margin=float(1.0 - np.max(v) / lim[k]))
+            worst = _worst(k, v)
+            margin = worst if k == "capture_margin_m" else 1.0 - worst / _limit_of(problem, k)
+            d[k] = dict(worst=worst, mean=float(np.mean(v)), margin=float(margin))
         out[kind] = d
-    ok = np.stack([np.asarray(aux["hard"][k]) < lim[k] for k in CRITERIA], axis=1)
+    ok = _hard_ok(problem, aux)
     out["success_rate"] = float(np.mean(np.all(ok, axis=1)))
-    out["success_rate_per_criterion"] = {k: float(np.mean(ok[:, i])) for i, k in enumerate(CRITERIA)}
+    out["success_rate_per_criterion"] = {k: float(np.mean(ok[:, i])) for i, k in enumerate(problem.criteria_names)}
     status = np.asarray(aux["status"])
     out["solver_failures"] = int(np.sum(status != 0))
     out["max_solver_steps"] = int(np.max(np.asarray(aux["num_steps"])))
@@ -707,12 +980,17 @@ class DesignHistory(eqx.Module):
     grad_norm: np.ndarray
     """|dJ/du| (NaN for derivative-free methods), shape (m,)"""
     worst_hard: np.ndarray
-    """worst case over the batch of the hard (z_max [m], a_max [g], sigma_max [MPa]), shape (m, 3)"""
+    """the problem's record of each evaluation, shape (m, c), columns ``criteria_names``: for the
+    buffer design the worst case over the batch of the hard criteria (z_max [m], a_max [g],
+    sigma_max [MPa]; phase full adds the smallest capture margin [m] and the largest tracking
+    error [m]); for the line-throwing design its outputs (:mod:`jaxcable.line_design`)"""
     success_rate: np.ndarray
-    """fraction of cases meeting all three hard criteria, shape (m,)"""
+    """fraction of cases meeting every hard criterion (1 or 0 for a single-case problem), shape (m,)"""
     wall_s: np.ndarray
     """wall time since the start at the end of each evaluation [s] (includes compiling if the
     jitted function was not warm), shape (m,)"""
+    criteria_names: tuple = eqx.field(static=True, default=CRITERIA)
+    """names of the columns of ``worst_hard``"""
 
     @property
     def best(self) -> int:
@@ -731,6 +1009,7 @@ class DesignHistory(eqx.Module):
         return dict(
             method=self.method,
             names=list(self.names),
+            criteria_names=list(self.criteria_names),
             x=self.x.tolist(),
             objective=self.objective.tolist(),
             grad_norm=[None if not np.isfinite(g) else float(g) for g in self.grad_norm],
@@ -740,14 +1019,133 @@ class DesignHistory(eqx.Module):
         )
 
 
-def _worst_hard(aux):
-    return [float(np.max(np.asarray(aux["hard"][k]))) for k in CRITERIA]
+def _record(problem):
+    """``aux -> (worst hard criteria (c,), success rate)`` of a buffer design problem."""
+
+    def record(aux):
+        worst = [_worst(k, np.asarray(aux["hard"][k])) for k in problem.criteria_names]
+        return worst, float(np.mean(np.all(_hard_ok(problem, aux), axis=1)))
+
+    return record
 
 
-def _success(problem, aux):
-    lim = np.asarray(_limits(problem))
-    ok = np.stack([np.asarray(aux["hard"][k]) < lim[i] for i, k in enumerate(CRITERIA)], axis=1)
-    return float(np.mean(np.all(ok, axis=1)))
+def _check_steps(steps):
+    if isinstance(steps, (bool, np.bool_)) or not isinstance(steps, (int, np.integer)) or steps < 0:
+        raise ValueError(f"steps must be a non-negative integer, got {steps!r}")
+
+
+def optax_minimise(
+    space: DesignSpace,
+    value_and_grad,
+    x0,
+    steps: int = 50,
+    optimizer=None,
+    learning_rate: float = 0.1,
+    callback=None,
+    record=None,
+    criteria_names: tuple = CRITERIA,
+) -> DesignHistory:
+    """The optax loop on the unconstrained variables of ``space``, for any objective.
+
+    ``value_and_grad(u) -> (J, dJ/du, aux)`` (jitted; ``aux["x"]`` the physical design);
+    ``record(aux) -> (criteria (c,), success)`` fills the history's ``worst_hard`` and
+    ``success_rate`` (None: NaN). Default optimizer ``optax.adam(learning_rate)``; the final point
+    is evaluated too, so the history has ``steps + 1`` rows; ``callback(i, J, x, aux)`` after each."""
+    import optax
+
+    _check_steps(steps)
+    check_positive("learning_rate", learning_rate)
+    opt = optax.adam(learning_rate) if optimizer is None else optimizer
+    u = space.to_unconstrained(x0)
+    state = opt.init(u)
+    rows = dict(x=[], objective=[], grad_norm=[], worst_hard=[], success_rate=[], wall_s=[])
+    t0 = time.perf_counter()
+    for i in range(steps + 1):
+        j, g, aux = value_and_grad(u)
+        j = float(j)
+        g_np = np.asarray(g)
+        worst, success = record(aux) if record is not None else ([np.nan] * len(criteria_names), np.nan)
+        rows["x"].append(np.asarray(aux["x"]))
+        rows["objective"].append(j)
+        rows["grad_norm"].append(float(np.linalg.norm(g_np)))
+        rows["worst_hard"].append(worst)
+        rows["success_rate"].append(success)
+        rows["wall_s"].append(time.perf_counter() - t0)
+        if callback is not None:
+            callback(i, j, np.asarray(aux["x"]), aux)
+        if i == steps:
+            break
+        if not np.all(np.isfinite(g_np)) or not np.isfinite(j):
+            raise FloatingPointError(f"non-finite objective or gradient at step {i}: J = {j}, dJ/du = {g_np}")
+        updates, state = opt.update(g, state, u)
+        u = optax.apply_updates(u, updates)
+    return DesignHistory(
+        method="adam" if optimizer is None else "optax",
+        names=space.names,
+        criteria_names=tuple(criteria_names),
+        **{k: np.asarray(v, dtype=float) for k, v in rows.items()},
+    )
+
+
+def nelder_mead_minimise(
+    space: DesignSpace,
+    value,
+    x0,
+    max_evaluations: int = 100,
+    initial_step: float = 0.5,
+    target: float | None = None,
+    record=None,
+    criteria_names: tuple = CRITERIA,
+) -> DesignHistory:
+    """Derivative-free baseline for any objective: scipy's Nelder-Mead on the unconstrained
+    variables of ``space``. ``value(u) -> (J, aux)`` (jitted forward); ``record`` as in
+    :func:`optax_minimise`. The initial simplex steps each ``u`` by ``initial_step`` (scipy's
+    default 5 % of ``u`` is degenerate where ``u`` = 0, the middle of the bounds). Stops after
+    ``max_evaluations`` calls, or as soon as ``J <= target`` if given."""
+    from scipy.optimize import minimize
+
+    check_positive("initial_step", initial_step)
+    u0 = np.asarray(space.to_unconstrained(x0))
+    k = u0.shape[0]
+    simplex = np.vstack([u0] + [u0 + initial_step * np.eye(k)[i] for i in range(k)])
+    rows = dict(x=[], objective=[], grad_norm=[], worst_hard=[], success_rate=[], wall_s=[])
+    t0 = time.perf_counter()
+
+    class _Reached(Exception):
+        pass
+
+    def f(u):
+        if len(rows["objective"]) >= max_evaluations:
+            raise _Reached
+        j, aux = value(jnp.asarray(u))
+        j = float(j)
+        worst, success = record(aux) if record is not None else ([np.nan] * len(criteria_names), np.nan)
+        rows["x"].append(np.asarray(aux["x"]))
+        rows["objective"].append(j)
+        rows["grad_norm"].append(np.nan)
+        rows["worst_hard"].append(worst)
+        rows["success_rate"].append(success)
+        rows["wall_s"].append(time.perf_counter() - t0)
+        if target is not None and j <= target:
+            raise _Reached
+        # a failed solve gives NaN: Nelder-Mead treats +inf as "worse than every vertex"
+        return j if np.isfinite(j) else np.inf
+
+    try:
+        minimize(
+            f,
+            u0,
+            method="Nelder-Mead",
+            options=dict(initial_simplex=simplex, maxfev=max_evaluations, xatol=1e-4, fatol=1e-7),
+        )
+    except _Reached:
+        pass
+    return DesignHistory(
+        method="nelder-mead",
+        names=space.names,
+        criteria_names=tuple(criteria_names),
+        **{k: np.asarray(v, dtype=float) for k, v in rows.items()},
+    )
 
 
 def optimise(
@@ -765,39 +1163,11 @@ def optimise(
     its range per step). The batch is fixed (the problem's), so the run is deterministic. Each step
     evaluates ``J`` and ``dJ/du`` once (:func:`objective_and_grad`); the final point is evaluated
     too, so the history has ``steps + 1`` rows. ``callback(i, J, x, aux)`` is called after each."""
-    import optax
-
-    if isinstance(steps, (bool, np.bool_)) or not isinstance(steps, (int, np.integer)) or steps < 0:
-        raise ValueError(f"steps must be a non-negative integer, got {steps!r}")
-    check_positive("learning_rate", learning_rate)
-    opt = optax.adam(learning_rate) if optimizer is None else optimizer
-    u = problem.space.to_unconstrained(x0)
-    state = opt.init(u)
-    rows = dict(x=[], objective=[], grad_norm=[], worst_hard=[], success_rate=[], wall_s=[])
-    t0 = time.perf_counter()
-    for i in range(steps + 1):
-        j, g, aux = objective_and_grad(problem, u)
-        j = float(j)
-        g_np = np.asarray(g)
-        rows["x"].append(np.asarray(aux["x"]))
-        rows["objective"].append(j)
-        rows["grad_norm"].append(float(np.linalg.norm(g_np)))
-        rows["worst_hard"].append(_worst_hard(aux))
-        rows["success_rate"].append(_success(problem, aux))
-        rows["wall_s"].append(time.perf_counter() - t0)
-        if callback is not None:
-            callback(i, j, np.asarray(aux["x"]), aux)
-        if i == steps:
-            break
-        if not np.all(np.isfinite(g_np)) or not np.isfinite(j):
-            raise FloatingPointError(f"non-finite objective or gradient at step {i}: J = {j}, dJ/du = {g_np}")
-        updates, state = opt.update(g, state, u)
-        u = optax.apply_updates(u, updates)
-    return DesignHistory(
-        method="adam" if optimizer is None else "optax",
-        names=problem.space.names,
-        **{k: np.asarray(v, dtype=float) for k, v in rows.items()},
-    )
+    return optax_minimise(
+        problem.space, lambda u: objective_and_grad(problem, u), x0, steps=steps, optimizer=optimizer,
+        learning_rate=learning_rate, callback=callback, record=_record(problem),
+        criteria_names=problem.criteria_names,
+    )  # fmt: skip
 
 
 def nelder_mead(
@@ -808,50 +1178,11 @@ def nelder_mead(
     target: float | None = None,
 ) -> DesignHistory:
     """Derivative-free baseline: scipy's Nelder-Mead on the same unconstrained variables and the
-    same objective (:func:`objective_value`, jitted forward). The initial simplex steps each ``u``
-    by ``initial_step`` (scipy's default 5 % of ``u`` is degenerate where ``u`` = 0, the middle of
-    the bounds). Stops after ``max_evaluations`` calls, or as soon as ``J <= target`` if given."""
-    from scipy.optimize import minimize
-
-    check_positive("initial_step", initial_step)
-    u0 = np.asarray(problem.space.to_unconstrained(x0))
-    k = u0.shape[0]
-    simplex = np.vstack([u0] + [u0 + initial_step * np.eye(k)[i] for i in range(k)])
-    rows = dict(x=[], objective=[], grad_norm=[], worst_hard=[], success_rate=[], wall_s=[])
-    t0 = time.perf_counter()
-
-    class _Reached(Exception):
-        pass
-
-    def f(u):
-        if len(rows["objective"]) >= max_evaluations:
-            raise _Reached
-        j, aux = objective_value(problem, jnp.asarray(u))
-        j = float(j)
-        rows["x"].append(np.asarray(aux["x"]))
-        rows["objective"].append(j)
-        rows["grad_norm"].append(np.nan)
-        rows["worst_hard"].append(_worst_hard(aux))
-        rows["success_rate"].append(_success(problem, aux))
-        rows["wall_s"].append(time.perf_counter() - t0)
-        if target is not None and j <= target:
-            raise _Reached
-        return j
-
-    try:
-        minimize(
-            f,
-            u0,
-            method="Nelder-Mead",
-            options=dict(initial_simplex=simplex, maxfev=max_evaluations, xatol=1e-4, fatol=1e-7),
-        )
-    except _Reached:
-        pass
-    return DesignHistory(
-        method="nelder-mead",
-        names=problem.space.names,
-        **{k: np.asarray(v, dtype=float) for k, v in rows.items()},
-    )
+    same objective (:func:`objective_value`, jitted forward); see :func:`nelder_mead_minimise`."""
+    return nelder_mead_minimise(
+        problem.space, lambda u: objective_value(problem, u), x0, max_evaluations=max_evaluations,
+        initial_step=initial_step, target=target, record=_record(problem), criteria_names=problem.criteria_names,
+    )  # fmt: skip
 
 
 # ------------------------------------------------------------------------------------------------
@@ -859,7 +1190,7 @@ def nelder_mead(
 # ------------------------------------------------------------------------------------------------
 
 
-def _parse_values(text, what):
+def _parse_values(text, what, catalogue=DESIGN_VARIABLES):
     """``"m_w=1000,F_f=3e5"`` -> dict; ``"m_w=300:5000"`` -> dict of (lo, hi) when ``what`` is bounds."""
     out = {}
     if not text:
@@ -868,7 +1199,7 @@ def _parse_values(text, what):
         if "=" not in item:
             raise ValueError(f"{what}: expected name=value items separated by commas, got {item!r}")
         name, value = (s.strip() for s in item.split("=", 1))
-        check_choice(f"design variable in {what}", name, DESIGN_VARIABLES)
+        check_choice(f"design variable in {what}", name, catalogue)
         if what == "--bounds":
             if ":" not in value:
                 raise ValueError(f"--bounds: expected name=lower:upper, got {item!r}")
@@ -893,14 +1224,14 @@ def _print_report(title, rep):
         f"penalty {t['penalty']:.4f}, design cost {t['design_cost']:.4f})"
     )
     c = rep["criteria"]
-    units = dict(z_max_m="m", a_max_g="g", sigma_max_mpa="MPa")
-    for k in CRITERIA:
+    units = dict(z_max_m="m", a_max_g="g", sigma_max_mpa="MPa", capture_margin_m="m", tracking_error_m="m")
+    for k in c["hard"]:
         h, s = c["hard"][k], c["smooth"][k]
         print(
             f"  {k:14s} hard worst {h['worst']:8.3f} mean {h['mean']:8.3f} | smooth worst {s['worst']:8.3f} "
             f"mean {s['mean']:8.3f} {units[k]:3s} (hard success {c['success_rate_per_criterion'][k]:.0%})"
         )
-    print(f"  success rate (all three, hard) {c['success_rate']:.1%}; solver failures {c['solver_failures']}")
+    print(f"  success rate (all criteria, hard) {c['success_rate']:.1%}; solver failures {c['solver_failures']}")
 
 
 def design_main(argv: list[str] | None = None) -> int:
@@ -910,24 +1241,32 @@ def design_main(argv: list[str] | None = None) -> int:
     the batch; success rate) at the start and at the best design found; ``--json`` prints one
     object instead. Returns 0, or 2 on bad input."""
     parser = argparse.ArgumentParser(prog="jaxcable design", description=design_main.__doc__.splitlines()[0])
-    parser.add_argument("--vars", default="m_w,F_f", help="design variables, comma-separated: m_w, F_f, a_p (default m_w,F_f)")
+    parser.add_argument("--scene", choices=["arresting", "throw"], default="arresting", help="arresting (buffer design over a QMC batch, default) or throw (line-throwing launch: range under a landing-speed and rope-pull limit)")
+    parser.add_argument("--vars", default=None, help="design variables, comma-separated: m_w, F_f, a_p (default m_w,F_f); with --scene throw: angle_deg, rope_diameter_m, rope_linear_density_kg_per_m (default angle_deg,rope_diameter_m)")
     parser.add_argument("--n", type=int, default=64, help="captures in the QMC batch (default 64)")
     parser.add_argument("--steps", type=int, default=50, help="optimiser steps (default 50)")
     parser.add_argument("--scenario", choices=["I", "II", "III"], default="I", help="Table 4 scenario (default I)")
     parser.add_argument("--fidelity", choices=["rigid", "ale", "full"], default="rigid", help="model level (default rigid; ale/full are slow)")
-    parser.add_argument("--phase", choices=list(PHASES), default="passive", help="passive (from Table 8 captures) or full (two-phase; not available yet)")
+    parser.add_argument("--phase", choices=list(PHASES), default=None, help="passive (Table 8 captures, passive scene) or full (Table 3 terminal-guidance states, tracking + capture + passive phase, level rigid); default: full when a_p is a variable, else passive")
     parser.add_argument("--seed", type=int, default=0, help="seed of the scrambled Halton batch (default 0)")
     parser.add_argument("--lr", type=float, default=0.1, help="adam learning rate in the unconstrained variables (default 0.1)")
     parser.add_argument("--t-end", type=float, default=1.2, help="time simulated after capture [s] (default 1.2)")
-    parser.add_argument("--start", default="paper", help="'paper' (section II.B: m_t = 2, eq 19) or name=value,... replacing the paper design's values (default paper)")
+    parser.add_argument("--start", default="paper", help="'paper' (section II.B: m_t = 2, eq 19, and Table 4's a_p; --scene throw: the flight-tested 30 deg and the calibrated 10 mm rope) or name=value,... replacing the paper design's values (default paper)")
     parser.add_argument("--bounds", default="", help="name=lower:upper,... overriding the default bounds")
     parser.add_argument("--rtol", type=float, default=None, help="relative = absolute solver tolerance (default per level: rigid 1e-6, ale/full 1e-5)")
     parser.add_argument("--gradient", choices=list(GRADIENT_MODES), default="forward", help="forward or reverse mode (default forward)")
+    parser.add_argument("--landing-speed", type=float, default=None, help="--scene throw: landing-speed limit [m/s] (default 60)")
+    parser.add_argument("--max-tension", type=float, default=None, help="--scene throw: limit of the rope's pull on the rocket [N] (default 4000)")
+    parser.add_argument("--segment-length", type=float, default=10.0, help="--scene throw: rope segment length [m] (default 10)")
+    parser.add_argument("--rope-length", type=float, default=1000.0, help="--scene throw: rope in the box [m] (default 1000)")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     args = parser.parse_args(argv)
     from . import enable_x64
 
     enable_x64()
+    if args.scene == "throw":
+        return _throw_design_main(args)
+    args.vars = "m_w,F_f" if args.vars is None else args.vars
     try:
         if args.steps < 0:
             raise ValueError(f"--steps must be >= 0, got {args.steps}")
@@ -983,12 +1322,88 @@ def design_main(argv: list[str] | None = None) -> int:
         best_step=hist.best,
         history=dict(objective=hist.objective.tolist(), success_rate=hist.success_rate.tolist()),
         wall_s=wall,
-        limits=dict(z_max_m=problem.limits.z_max_m, a_max_g=problem.limits.a_max_g, sigma_max_mpa=problem.limits.sigma_max_mpa),
+        phase=problem.phase,
+        limits={k: _limit_of(problem, k) for k in problem.criteria_names},
     )
+    if problem.phase == "full":
+        out["capture_reference_m"] = float(problem.capture_reference_m)
     if args.json:
         print(json.dumps(out))
     else:
         _print_report("before (start design)", before)
         _print_report(f"after (best of {args.steps} adam steps: step {hist.best})", after)
+        print(f"  wall time {wall:.1f} s (includes compiling)")
+    return 0
+
+
+def _throw_design_main(args) -> int:
+    """``jaxcable design --scene throw``: adam on :mod:`jaxcable.line_design` from the flight-tested
+    design (``--start paper``: 30 deg, the calibrated 10 mm rope)."""
+    from .line_design import THROW_VARIABLES, ThrowLimits, calibrated_start, optimise_throw, throw_problem, throw_report
+
+    try:
+        if args.steps < 0:
+            raise ValueError(f"--steps must be >= 0, got {args.steps}")
+        limits = {}
+        if args.landing_speed is not None:
+            limits["landing_speed_mps"] = args.landing_speed
+        if args.max_tension is not None:
+            limits["max_tension_N"] = args.max_tension
+        settings = {} if args.rtol is None else dict(rtol=args.rtol, atol=args.rtol)
+        problem = throw_problem(
+            "angle_deg,rope_diameter_m" if args.vars is None else args.vars,
+            segment_length_m=args.segment_length,
+            rope_length_m=args.rope_length,
+            bounds=_parse_values(args.bounds, "--bounds", THROW_VARIABLES),
+            limits=ThrowLimits(**limits),
+            gradient=args.gradient,
+            **settings,
+        )
+        x0 = calibrated_start(problem)
+        if args.start != "paper":
+            x0 = problem.space.from_dict({**problem.space.as_dict(x0), **_parse_values(args.start, "--start", THROW_VARIABLES)})
+    except ValueError as err:
+        print(f"jaxcable design: error: {err}", file=sys.stderr)
+        return 2
+    kept = {}
+
+    def progress(i, j, x, aux):
+        if i == 0:
+            kept["start"] = aux
+        if "best" not in kept or j < float(kept["best"]["terms"]["total"]):
+            kept["best"] = aux
+        if not args.json:
+            print(f"  step {i:3d}  J = {j:+.5f}  " + ", ".join(f"{k} = {v:.6g}" for k, v in problem.space.as_dict(x).items())
+                  + f"  range {float(aux['range_m']):.1f} m, landing {float(aux['impact_speed_mps']):.2f} m/s, "
+                  f"pull {float(aux['max_tension_N']):.0f} N", flush=True)  # fmt: skip
+
+    t0 = time.perf_counter()
+    hist = optimise_throw(problem, x0, steps=args.steps, learning_rate=args.lr, callback=progress)
+    wall = time.perf_counter() - t0
+    before, after = throw_report(problem, kept["start"]), throw_report(problem, kept["best"])
+    out = dict(
+        scene="throw",
+        variables=list(problem.space.names),
+        bounds={n: [float(lo), float(hi)] for n, lo, hi in zip(problem.space.names, np.asarray(problem.space.lower), np.asarray(problem.space.upper))},
+        limits=dict(landing_speed_mps=float(problem.limits.landing_speed_mps), max_tension_N=float(problem.limits.max_tension_N)),
+        segment_length_m=args.segment_length,
+        rope_length_m=float(problem.scene.rope.length_m),
+        steps=args.steps,
+        rtol=problem.rtol,
+        gradient=args.gradient,
+        before=before,
+        after=after,
+        best_step=hist.best,
+        history=dict(objective=hist.objective.tolist()),
+        wall_s=wall,
+    )
+    if args.json:
+        print(json.dumps(out))
+    else:
+        for title, rep in (("before (flight-tested design)", before), (f"after (best of {args.steps} adam steps: step {hist.best})", after)):
+            print(title)
+            print("  design     " + ", ".join(f"{k} = {v:.6g}" for k, v in rep["design"].items()))
+            print(f"  objective  {rep['objective']:+.5f}  range {rep['range_m']:.1f} m, landing speed "
+                  f"{rep['impact_speed_mps']:.2f} m/s, max rope pull {rep['max_tension_N']:.0f} N, within limits {rep['within_limits']}")  # fmt: skip
         print(f"  wall time {wall:.1f} s (includes compiling)")
     return 0
