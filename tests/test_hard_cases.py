@@ -9,8 +9,9 @@ Cost: compiled functions are shared between cases (module-level fixtures): one r
 solve (cases 1, 2, 3, 8, 9), one forward-mode rigid-level derivative (cases 1, 2, 3), one tracking
 solve (cases 4, 8), one pinned-chain solve and its derivative (cases 6, 10); case 7 compiles the
 rigid solve once more in float32. The line-throwing case 5 (a ~30 s compile of its own) and the
-tracking gradient of case 4 are marked slow. Two strict xfails record what cannot be solved yet
-(forward-mode AD at an exactly folded rope; AD when the rope runs out of the box).
+tracking gradient of case 4 are marked slow. One strict xfail records what cannot be solved yet
+(forward-mode AD at an exactly folded rope); AD when the rope runs out of the box was fixed
+(``SegmentRope.runout_fraction``).
 """
 
 import diffrax
@@ -630,17 +631,13 @@ def test_new_segment_of_zero_length():
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason="rope running out of the box: the payout rate drops to zero at the state-dependent instant "
-    "S = capacity * l (a jump in the vector field, jaxcable/line/segments.py kinematics) with no event "
-    "or blend, so AD misses the saltation term (measured d speed/d rail: AD -0.061, FD -0.0003)",
-)
 def test_gradient_when_the_rope_runs_out():
     """Found while building case 5: start with 59.5 m of the 60 m rope out, so the box empties at
-    ~0.005 s. The forward-mode derivative of the final speed, deployed length and x w.r.t. the rail
-    length disagrees with central differences (the deployed length is capped at 60 m, so its true
-    derivative is ~0; AD gives 0.9985). Passes once the end of the rope is blended or an event."""
+    ~0.005 s. With a payout rate that jumped to zero at the run-out instant, the forward-mode
+    derivative of the final speed, deployed length and x w.r.t. the rail length disagreed with
+    central differences (AD -0.061 against -0.0003 for the speed; 0.9985 against ~0 for the capped
+    deployed length). Fixed by fading the payout over the rope's last 5 cm
+    (``SegmentRope.runout_fraction``): AD now agrees."""
     _, d = _throw_jvp(jnp.asarray(59.5))
     h = 1e-3
     fd = (np.asarray(_throw(jnp.asarray(59.5 + h))[0]) - np.asarray(_throw(jnp.asarray(59.5 - h))[0])) / (2 * h)
