@@ -99,9 +99,13 @@ def _solve(scene, t1, save_ts, snapshot_ts, solver, controller, adjoint, max_ste
     ]
     event = None
     if scene.has_terminal_event:
+        # the event time's tolerance: 1e-9 in float64; float32 cannot resolve it, so there it is
+        # scaled to the precision (a float32 run otherwise reports a failed root find although its
+        # outputs are right: docs/work_precision.md)
+        tol = max(1e-9, 100.0 * float(jnp.finfo(jnp.asarray(save_ts).dtype).eps))
         event = diffrax.Event(
             lambda t, y, args, **kw: scene.terminal_event(t, y),
-            root_finder=optx.Newton(rtol=1e-9, atol=1e-9),
+            root_finder=optx.Newton(rtol=tol, atol=tol),
         )
     sol = diffrax.diffeqsolve(
         term,
