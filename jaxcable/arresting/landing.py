@@ -22,7 +22,11 @@ from .passive import FIDELITY_LEVELS, G_CRITERIA, LandingCriteria, passive_landi
 __all__ = ["LEVEL_DEFAULTS", "LandingRun", "report_landing", "run_landing"]
 
 LEVEL_DEFAULTS = {
-    # level: (solver, rtol, atol, max_steps)
+    # level: (solver, rtol, atol, max_steps). Chosen from the work-precision study
+    # (docs/work_precision.md; reference Dopri8 1e-10): every level's step is held by stability,
+    # not accuracy, so tightening costs little. rigid at 1e-6: 2e-7 error for 1.2x the cost of 1e-4;
+    # ale/full at 1e-5: 5e-5 / 1e-6 error, at the a_max rounding sensitivity (2e-5), 1e-6 costs
+    # 1.18x more. Implicit Kvaerno3/5 are 100-1000x slower on these scenes.
     "rigid": ("tsit5", 1e-6, 1e-6, 200_000),
     "ale": ("tsit5", 1e-5, 1e-5, 400_000),
     "full": ("tsit5", 1e-5, 1e-5, 400_000),
