@@ -544,6 +544,10 @@ class DesignProblem(eqx.Module):
     criterion is normalised as ``r = 1 - margin / capture_reference_m`` (0: centred, 1: the edge)"""
     margin_width_m: jax.Array = eqx.field(converter=_float_array, default=0.02)
     """width of the soft minimum over the four hooks' capture margins [m], shape ()"""
+    cable_damping_s: float = eqx.field(static=True, default=1e-5)
+    """The cables' stiffness-proportional damping beta [s] in the passive phase (the paper gives no
+    value; 1e-5 is the scenes' default, chosen for the ALE level's step cost). a_max depends strongly
+    on it: the cable-counterweight mode rings with beta = 1e-5 (README, sensitivity table)."""
     passive_air: bool = eqx.field(static=True, default=True)
     """``phase="full"``: the passive phase keeps the tracking phase's wind and the rocket's
     aerodynamics after capture (two_phase.py's default); False: still air after capture"""
@@ -753,7 +757,10 @@ def _gain(problem: DesignProblem, x):
 
 
 def _scene(problem: DesignProblem, capture: CaptureState, x):
-    return passive_landing_scene(problem.fidelity, capture, problem.layout, _buffer(problem, x), t_end_s=problem.t_end_s)
+    return passive_landing_scene(
+        problem.fidelity, capture, problem.layout, _buffer(problem, x), t_end_s=problem.t_end_s,
+        cable_damping_s=problem.cable_damping_s,
+    )  # fmt: skip
 
 
 def _one_case(problem: DesignProblem, capture, x, adjoint):
@@ -797,7 +804,7 @@ def _one_two_phase_case(problem: DesignProblem, terminal, conditions, x, adjoint
         scene, "rigid", buffer, passive_t_end_s=problem.t_end_s, tracking_tolerance_m=problem.tracking_tolerance_m,
         margin_width_m=problem.margin_width_m, criteria=problem.limits, keep_histories=True, adjoint=adjoint,
         solver_settings={"rigid": ("tsit5", problem.rtol, problem.atol, problem.max_steps)},
-        passive_air=problem.passive_air,
+        passive_air=problem.passive_air, passive_kwargs=dict(cable_damping_s=problem.cable_damping_s),
     )  # fmt: skip
     land, track = out["passive"], out["tracking"]
     final = track.final_state
@@ -1251,6 +1258,10 @@ def design_main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=0, help="seed of the scrambled Halton batch (default 0)")
     parser.add_argument("--lr", type=float, default=0.1, help="adam learning rate in the unconstrained variables (default 0.1)")
     parser.add_argument("--t-end", type=float, default=1.2, help="time simulated after capture [s] (default 1.2)")
+    parser.add_argument(
+        "--cable-damping", type=float, default=1e-5,
+        help="cable stiffness-proportional damping beta [s] (default 1e-5; the paper gives none, a_max depends on it)",
+    )  # fmt: skip
     parser.add_argument("--start", default="paper", help="'paper' (section II.B: m_t = 2, eq 19, and Table 4's a_p; --scene throw: the flight-tested 30 deg and the calibrated 10 mm rope) or name=value,... replacing the paper design's values (default paper)")
     parser.add_argument("--bounds", default="", help="name=lower:upper,... overriding the default bounds")
     parser.add_argument("--rtol", type=float, default=None, help="relative = absolute solver tolerance (default per level: rigid 1e-6, ale/full 1e-5)")
@@ -1281,6 +1292,7 @@ def design_main(argv: list[str] | None = None) -> int:
             bounds=_parse_values(args.bounds, "--bounds"),
             t_end_s=args.t_end,
             gradient=args.gradient,
+            cable_damping_s=args.cable_damping,
             **tol,
         )
         x0 = paper_start(problem)

@@ -9,6 +9,7 @@ module fixture; every test that simulates re-uses that compiled objective (same 
 
 import json
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -343,3 +344,15 @@ def test_two_phase_design_gradient_and_cli(capsys):
     hard = out["before"]["criteria"]["hard"]
     assert hard["capture_margin_m"]["worst"] == pytest.approx(float(np.min(np.asarray(aux["hard"]["capture_margin_m"]))), rel=1e-12)
     assert set(hard) == {"z_max_m", "a_max_g", "sigma_max_mpa", "capture_margin_m", "tracking_error_m"}
+
+
+def test_cable_damping_reaches_the_passive_scene():
+    """The modelling parameter ``cable_damping_s`` (beta, not given in the paper) is passed to the
+    cables of every case's scene (no solve: the scene is only built)."""
+    from jaxcable.design import _scene, design_problem
+
+    p = design_problem("m_w,F_f", n=2, cable_damping_s=3e-3)
+    cap = jax.tree_util.tree_map(lambda a: a[0], p.captures)
+    scene = _scene(p, cap, paper_start(p))
+    assert float(scene.cables.damping_s) == pytest.approx(3e-3)
+    assert design_problem("m_w,F_f", n=2).cable_damping_s == pytest.approx(1e-5)
