@@ -908,12 +908,18 @@ def objective_and_grad(problem: DesignProblem, u):
     carries the k tangents); ``"reverse"``: ``jax.grad`` with ``RecursiveCheckpointAdjoint``.
     ``dJ/dx = dJ/du / (dx/du)`` with ``dx/du = (x - lo)(hi - x) / (hi - lo)``."""
     adjoint = _adjoint(problem)
+    return value_and_grad_by_mode(lambda u_: objective(problem, u_, adjoint), u, problem.gradient)
+
+
+def value_and_grad_by_mode(fn, u, gradient: str):
+    """``(J, dJ/du, aux)`` of ``fn(u) -> (J, aux)``: ``jax.jacfwd`` for ``gradient == "forward"``
+    (the solves inside ``fn`` must use ``diffrax.ForwardMode``), else ``jax.grad``."""
 
     def f(u_):
-        j, aux = objective(problem, u_, adjoint)
+        j, aux = fn(u_)
         return j, (j, aux)
 
-    if problem.gradient == "forward":
+    if gradient == "forward":
         grad, (j, aux) = jax.jacfwd(f, has_aux=True)(u)
     else:
         grad, (j, aux) = jax.grad(f, has_aux=True)(u)

@@ -65,7 +65,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._validation import check_choice, check_positive
-from .design import DesignSpace, _float_array, nelder_mead_minimise, optax_minimise
+from .design import DesignSpace, _float_array, nelder_mead_minimise, optax_minimise, value_and_grad_by_mode
 from .scenes.line_throwing import LineThrowingScene, line_throwing_scene
 
 __all__ = [
@@ -287,21 +287,12 @@ def throw_objective_and_grad(problem: ThrowDesignProblem, u):
     """Jitted objective and gradient w.r.t. ``u``: ``(J, dJ/du (k,), aux)``; forward mode
     (``diffrax.ForwardMode`` + ``jax.jacfwd``) or reverse mode (``RecursiveCheckpointAdjoint`` +
     ``jax.grad``) by ``problem.gradient``."""
-
     if problem.gradient == "forward":
         adjoint = diffrax.ForwardMode()
     else:
         adjoint = diffrax.RecursiveCheckpointAdjoint()
 
-    def f(u_):
-        j, aux = throw_objective(problem, u_, adjoint)
-        return j, (j, aux)
-
-    if problem.gradient == "forward":
-        grad, (j, aux) = jax.jacfwd(f, has_aux=True)(u)
-    else:
-        grad, (j, aux) = jax.grad(f, has_aux=True)(u)
-    return j, grad, aux
+    return value_and_grad_by_mode(lambda u_: throw_objective(problem, u_, adjoint), u, problem.gradient)
 
 
 def _record(problem):

@@ -114,6 +114,33 @@ _AXIS = "cases"
 # ------------------------------------------------------------------------------------------------
 
 
+def case_key(seed: int, params) -> jax.Array:
+    """PRNG key of one case's noise and gusts: the sweep's ``seed`` with the case's inputs folded in
+    (x, y, theta_z), so a case draws the same realisation wherever it sits in a batch."""
+    bits = jnp.asarray(params["x_m"] * 1e6 + params["y_m"] * 1e3 + params["theta_z_deg"], jnp.float32)
+    return jax.random.fold_in(jax.random.PRNGKey(seed), jax.lax.bitcast_convert_type(bits, jnp.uint32))
+
+
+def criteria_columns(outputs, criteria: LandingCriteria) -> dict:
+    """The passive-phase columns shared by every case function: each criterion's flag and margin
+    (limit - value, positive when met), the three maxima, stop time and energy-budget error."""
+    o, c = outputs, criteria
+    return dict(
+        criteria_met=o["criteria_met"],
+        z_ok=o["z_ok"],
+        z_margin_m=c.z_max_m - o["z_max_m"],
+        a_ok=o["a_ok"],
+        a_margin_g=c.a_max_g - o["a_max_g"],
+        sigma_ok=o["sigma_ok"],
+        sigma_margin_mpa=c.sigma_max_mpa - o["sigma_max_mpa"],
+        z_max_m=o["z_max_m"],
+        a_max_g=o["a_max_g"],
+        sigma_max_mpa=o["sigma_max_mpa"],
+        stop_time_s=o["stop_time_s"],
+        energy_budget_error=o["energy_budget_error"],
+    )
+
+
 class AbstractCaseFunction(eqx.Module):
     """One case: ``__call__(params) -> dict`` of scalar outputs (``status_code`` and ``num_steps``
     among them); optionally ``histories(params) -> dict`` of time histories for plots.
@@ -206,11 +233,9 @@ class PassiveCaseFunction(AbstractCaseFunction):
         if self.wind:
             from .arresting.wind import WindField
 
-            bits = jnp.asarray(params["x_m"] * 1e6 + params["y_m"] * 1e3 + params["theta_z_deg"], jnp.float32)
-            key = jax.random.fold_in(jax.random.PRNGKey(self.seed), jax.lax.bitcast_convert_type(bits, jnp.uint32))
             air["wind"] = WindField(
                 speed_m_s=params["wind_speed_m_s"], angle_deg=params["wind_angle_deg"],
-                gust_intensity=params["gust_intensity"], key=key,
+                gust_intensity=params["gust_intensity"], key=case_key(self.seed, params),
             )  # fmt: skip
         return passive_landing_scene(
             self.fidelity, capture, self.layout, self.buffer, t_end_s=self.t_end_s, **air
@@ -244,23 +269,11 @@ class PassiveCaseFunction(AbstractCaseFunction):
         finite = jnp.isfinite(r.ts)[:, None]
         hook_force = jnp.where(finite, r.probes["hook_normal_force_N"], 0.0)
         captured = jnp.all(jnp.max(hook_force, axis=0) > 0.0)
-        c = self.criteria
         out = dict(
             captured=captured,
             stopped=o["stopped"],
             success=captured & o["stopped"] & o["criteria_met"],
-            criteria_met=o["criteria_met"],
-            z_ok=o["z_ok"],
-            z_margin_m=c.z_max_m - o["z_max_m"],
-            a_ok=o["a_ok"],
-            a_margin_g=c.a_max_g - o["a_max_g"],
-            sigma_ok=o["sigma_ok"],
-            sigma_margin_mpa=c.sigma_max_mpa - o["sigma_max_mpa"],
-            z_max_m=o["z_max_m"],
-            a_max_g=o["a_max_g"],
-            sigma_max_mpa=o["sigma_max_mpa"],
-            stop_time_s=o["stop_time_s"],
-            energy_budget_error=o["energy_budget_error"],
+            **criteria_columns(o, self.criteria),
             status_code=r.status,
             num_steps=r.num_steps,
         )

@@ -175,36 +175,17 @@ def _cable_bits(n_el):
 
 
 def jaxcable_static(n_el: int):
-    import jax
     import jax.numpy as jnp
 
-    from jaxcable.line.ale import AleState, assemble
+    from _jaxcable_statics import static_newton
 
     cable, s, gravity = _cable_bits(n_el)
     n = n_el + 1
     # start from a parabola deeper than the answer: every element starts stretched (in tension)
     x = np.asarray(s)
     guess = jnp.stack([s, jnp.zeros(n), jnp.asarray(-4 * 0.6 * x * (LENGTH_M - x) / LENGTH_M**2)], 1)
-    zeros = jnp.zeros((n, 3))
-    scale = RHOA_KG_PER_M * G_MPS2 * LENGTH_M
-
-    def residual(q):
-        r = guess.at[1:-1].set(q.reshape(n - 2, 3))
-        _, Q = assemble(cable, AleState(r=r, s=s, v=zeros, sdot=jnp.zeros(n)), gravity)
-        return Q.reshape(n, 4)[1:-1, :3].reshape(-1) / scale
-
-    step = jax.jit(lambda q: (residual(q), jax.jacfwd(residual)(q)))
-    q = guess[1:-1].reshape(-1)
     t0 = time.perf_counter()
-    for _ in range(60):
-        F, J = step(q)
-        dq = jnp.linalg.solve(J, -F)
-        q = q + dq
-        if float(jnp.max(jnp.abs(dq))) < 1e-12:
-            break
-    F, _ = step(q)
-    assert float(jnp.max(jnp.abs(F))) < 1e-10, "jaxcable static Newton did not converge"
-    r = np.asarray(guess.at[1:-1].set(q.reshape(n - 2, 3)))
+    r = static_newton(cable, s, gravity, guess, RHOA_KG_PER_M * G_MPS2 * LENGTH_M, max_iter=60)
     return {"pos": r[:, [0, 2]], "run_s": time.perf_counter() - t0}
 
 

@@ -181,35 +181,16 @@ def _check_coupled_semantics(workdir: Path):
 # ----------------------------------------------------------------------------- jaxcable
 def jaxcable_static(nseg: int, guess: np.ndarray):
     """Discrete static equilibrium of the ALE (Lagrangian) cable by Newton; returns positions."""
-    import jax
     import jax.numpy as jnp
 
-    from jaxcable.line.ale import AleCable, AleState, assemble
+    from _jaxcable_statics import static_newton
 
-    n = nseg + 1
+    from jaxcable.line.ale import AleCable
+
     cable = AleCable(EA_N=EA_N, rhoA_kg_per_m=RHOA_KG_PER_M)
-    s = jnp.linspace(0.0, LENGTH_M, n)
+    s = jnp.linspace(0.0, LENGTH_M, nseg + 1)
     gravity = jnp.array([0.0, 0.0, -G_MPS2])
-    r0 = jnp.asarray(guess)
-    zeros = jnp.zeros((n, 3))
-    scale = RHOA_KG_PER_M * G_MPS2 * LENGTH_M
-
-    def residual(x):
-        r = r0.at[1:-1].set(x.reshape(n - 2, 3))
-        _, Q = assemble(cable, AleState(r=r, s=s, v=zeros, sdot=jnp.zeros(n)), gravity)
-        return Q.reshape(n, 4)[1:-1, :3].reshape(-1) / scale
-
-    step = jax.jit(lambda x: (residual(x), jax.jacfwd(residual)(x)))
-    x = r0[1:-1].reshape(-1)
-    for _ in range(50):
-        F, J = step(x)
-        dx = jnp.linalg.solve(J, -F)
-        x = x + dx
-        if float(jnp.max(jnp.abs(dx))) < 1e-12:
-            break
-    F, _ = step(x)
-    assert float(jnp.max(jnp.abs(F))) < 1e-10, "jaxcable static Newton did not converge"
-    return np.asarray(r0.at[1:-1].set(x.reshape(n - 2, 3)))
+    return static_newton(cable, s, gravity, guess, RHOA_KG_PER_M * G_MPS2 * LENGTH_M, max_iter=50)
 
 
 def node_tensions(r: np.ndarray, v: np.ndarray, nseg: int) -> np.ndarray:

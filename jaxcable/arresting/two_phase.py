@@ -75,7 +75,7 @@ import numpy as np
 
 from .._validation import check_choice, check_positive
 from ..scene import AbstractScene
-from ..sweep import AbstractCaseFunction
+from ..sweep import AbstractCaseFunction, case_key, criteria_columns
 from .buffer import BufferDevice
 from .cable_sets import throat_weights
 from .control import TrackingController, filtered_measurement, measurement_noise_track, target_point
@@ -512,8 +512,7 @@ class TwoPhaseCaseFunction(AbstractCaseFunction):
         from .uncertainty import UNCERTAIN_PARAMETERS
 
         terminal = CaptureState(**{k: params[k] for k in UNCERTAIN_PARAMETERS[:10]})
-        bits = jnp.asarray(params["x_m"] * 1e6 + params["y_m"] * 1e3 + params["theta_z_deg"], jnp.float32)
-        key = jax.random.fold_in(jax.random.PRNGKey(self.seed), jax.lax.bitcast_convert_type(bits, jnp.uint32))
+        key = case_key(self.seed, params)
         return tracking_scene(
             terminal, scenario=self.scenario, gain_per_s=self.gain_per_s, motor_delay_s=params["motor_delay_s"],
             noise_rms_m=params["noise_rms_m"], wind_speed_m_s=params["wind_speed_m_s"],
@@ -523,24 +522,12 @@ class TwoPhaseCaseFunction(AbstractCaseFunction):
 
     def __call__(self, params):
         o = two_phase_outputs(self.scene(params), "rigid", self.buffer, passive_t_end_s=self.t_end_s, criteria=self.criteria)
-        c = self.criteria
         return dict(
             captured=o["captured"],
             tracking_ok=o["tracking_ok"],
             stopped=o["stopped"],
             success=o["landed"] & o["stopped"],
-            criteria_met=o["criteria_met"],
-            z_ok=o["z_ok"],
-            z_margin_m=c.z_max_m - o["z_max_m"],
-            a_ok=o["a_ok"],
-            a_margin_g=c.a_max_g - o["a_max_g"],
-            sigma_ok=o["sigma_ok"],
-            sigma_margin_mpa=c.sigma_max_mpa - o["sigma_max_mpa"],
-            z_max_m=o["z_max_m"],
-            a_max_g=o["a_max_g"],
-            sigma_max_mpa=o["sigma_max_mpa"],
-            stop_time_s=o["stop_time_s"],
-            energy_budget_error=o["energy_budget_error"],
+            **criteria_columns(o, self.criteria),
             capture_margin_m=o["capture_margin_m"],
             tracking_error_m=o["tracking_error_m"],
             capture_time_s=o["capture_time_s"],

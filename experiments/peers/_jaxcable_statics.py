@@ -1,0 +1,42 @@
+"""Static equilibrium of jaxcable's ALE cable with both ends pinned, shared by the peer scripts
+(``moordyn_line.py``, ``exudyn_cable.py``): Newton on the generalised forces of
+:func:`jaxcable.line.ale.assemble` over the internal nodes' positions, from a stretched guess."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def static_newton(cable, s, gravity, guess, scale, max_iter: int = 50):
+    """Positions (n, 3) [m] of the discrete static equilibrium.
+
+    Args:
+        cable: :class:`jaxcable.line.ale.AleCable`; s: (n,) material coordinates [m];
+        gravity: (3,) [m/s^2]; guess: (n, 3) start [m], its end nodes are the pins;
+        scale: force scale of the residual [N] (e.g. the cable's weight); max_iter: Newton steps.
+    """
+    import jax
+    import jax.numpy as jnp
+
+    from jaxcable.line.ale import AleState, assemble
+
+    n = s.shape[0]
+    r0 = jnp.asarray(guess)
+    zeros = jnp.zeros((n, 3))
+
+    def residual(x):
+        r = r0.at[1:-1].set(x.reshape(n - 2, 3))
+        _, Q = assemble(cable, AleState(r=r, s=s, v=zeros, sdot=jnp.zeros(n)), gravity)
+        return Q.reshape(n, 4)[1:-1, :3].reshape(-1) / scale
+
+    step = jax.jit(lambda x: (residual(x), jax.jacfwd(residual)(x)))
+    x = r0[1:-1].reshape(-1)
+    for _ in range(max_iter):
+        F, J = step(x)
+        dx = jnp.linalg.solve(J, -F)
+        x = x + dx
+        if float(jnp.max(jnp.abs(dx))) < 1e-12:
+            break
+    F, _ = step(x)
+    assert float(jnp.max(jnp.abs(F))) < 1e-10, "jaxcable static Newton did not converge"
+    return np.asarray(r0.at[1:-1].set(x.reshape(n - 2, 3)))
