@@ -411,7 +411,8 @@ def worker_main(args):
 
     result = WORKERS[args.worker](spec)
     result = result if isinstance(result, dict) else {"value": result}
-    result["_jaxcable_file"] = jaxcable.__file__
+    # which jaxcable the worker imported (the working tree or a 'before' copy), relative to the repo
+    result["_jaxcable_file"] = os.path.relpath(jaxcable.__file__, ROOT)
     _write_json(args.spec.replace(".json", ".out.json"), result)
 
 
