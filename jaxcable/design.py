@@ -136,8 +136,9 @@ Readings, corrections and measurements
   problem adds Table 4's a_p for its scenario. Restrictions, each from two_phase.py: the passive
   phase runs at level ``rigid`` (the ale/full levels mesh their cables on the host); the tracking
   phase runs at two_phase.py's fixed tolerance (rtol 1e-6) whatever ``rtol`` says (``rtol`` sets
-  the passive phase's); gradients are forward mode only (reverse mode of the two-phase program
-  fails on this jaxlib: "no registered implementation for lapack_dgetrf_ffi").
+  the passive phase's). Both gradient modes work (reverse mode of the two-phase program failed on
+  jaxlib 0.10.2 until session 5: see ``body/multibody.py::_spd_solve``); forward is the default and
+  the cheaper one for up to three design variables.
 * **Which tracking error.** Section IV.A's criterion is that the tracking error "approaches zero";
   two_phase.py reports the *measured* error (frame centre vs. the noisy filtered target) at the
   last saved sample before capture and its ``tracking_ok`` holds it below 1 m. That value jumps
@@ -593,11 +594,6 @@ class DesignProblem(eqx.Module):
                     f"fidelity {self.fidelity!r}: phase='full' design runs at fidelity 'rigid' (the ale/full "
                     "levels mesh their cables on the host from the captured state, outside the traced objective)"
                 )
-            if self.gradient != "forward":
-                raise ValueError(
-                    f"gradient {self.gradient!r}: phase='full' needs gradient='forward' (reverse mode of the "
-                    "two-phase program fails on this jaxlib: 'no registered implementation for lapack_dgetrf_ffi')"
-                )
             if self.conditions is None or set(self.conditions) != set(CONDITIONS):
                 got = None if self.conditions is None else sorted(self.conditions)
                 raise ValueError(f"phase='full' needs conditions with the entries {list(CONDITIONS)}, got {got}")
@@ -686,11 +682,6 @@ def design_problem(
     if phase == "full":  # the clear errors before the (slow, eager) capture reference
         if fidelity != "rigid":
             raise ValueError(f"fidelity {fidelity!r}: phase='full' design runs at fidelity 'rigid'")
-        if settings.get("gradient", "forward") != "forward":
-            raise ValueError(
-                f"gradient {settings['gradient']!r}: phase='full' needs gradient='forward' (reverse mode of "
-                "the two-phase program fails on this jaxlib: 'no registered implementation for lapack_dgetrf_ffi')"
-            )
     samples = halton_samples(int(n), scenario=scenario, phase=phase, seed=seed)
     captures = captures_from_samples(samples)
     if phase == "full":

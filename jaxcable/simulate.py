@@ -157,6 +157,8 @@ def simulate(
     max_steps: int = 100_000,
     progress: bool = False,
     jit: bool = True,
+    pcoeff: float = 0.0,
+    icoeff: float = 1.0,
 ) -> Result:
     """Integrate a scene from t = 0 to ``t1`` [s] (or to its terminal event).
 
@@ -172,12 +174,18 @@ def simulate(
         max_steps: step budget; a run that exhausts it reports ``max_steps_reached``.
         progress: show a tqdm progress bar (outside ``vmap``).
         jit: compile the solve (one ``filter_jit`` boundary); ``False`` for debugging only.
+        pcoeff, icoeff: coefficients of diffrax's PID step-size controller (default 0, 1: the
+            classic I controller). A PI controller (e.g. 0.4, 0.3) rejects fewer steps where an
+            explicit solver runs at its stability limit (docs/arresting_design.md).
     """
     check_positive("t1", t1)
     check_positive("rtol", rtol)
     check_positive("atol", atol)
+    check_positive("icoeff", icoeff)
+    if not (pcoeff >= 0.0):
+        raise ValueError(f"pcoeff must be >= 0, got {pcoeff!r}")
     solver_ = make_solver(solver)
-    controller = diffrax.PIDController(rtol=rtol, atol=atol)
+    controller = diffrax.PIDController(rtol=rtol, atol=atol, pcoeff=pcoeff, icoeff=icoeff)
     jumps = scene.jump_times()
     if jumps is not None:
         controller = diffrax.ClipStepSizeController(controller, jump_ts=jumps)

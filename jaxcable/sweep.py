@@ -242,8 +242,12 @@ class PassiveCaseFunction(AbstractCaseFunction):
         )
 
     def _simulate(self, scene):
+        import diffrax
+
+        from .arresting.landing import LEVEL_STEP_CONTROL
         from .simulate import simulate
 
+        pcoeff, icoeff = LEVEL_STEP_CONTROL[self.fidelity]
         return simulate(
             scene,
             self.t_end_s,
@@ -252,6 +256,10 @@ class PassiveCaseFunction(AbstractCaseFunction):
             atol=self.atol,
             max_steps=self.max_steps,
             save_ts=jnp.linspace(0.0, self.t_end_s, self.n_save),
+            # a sweep is not differentiated: the plain while loop (see run_landing)
+            adjoint=diffrax.ForwardMode(),
+            pcoeff=pcoeff,
+            icoeff=icoeff,
         )
 
     def __call__(self, params):

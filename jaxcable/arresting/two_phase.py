@@ -362,7 +362,7 @@ def two_phase_outputs(
     The smooth outputs (``smooth_*``) are for gradients: a soft minimum of the capture margins
     (width ``margin_width_m``) and the soft maxima of :func:`smooth_landing_outputs`."""
     from ..simulate import simulate
-    from .landing import LEVEL_DEFAULTS
+    from .landing import LEVEL_DEFAULTS, LEVEL_STEP_CONTROL
 
     check_choice("fidelity", fidelity, ("rigid",))
     track, out1 = tracking_outputs(scene, tracking_tolerance_m, margin_width_m, adjoint)
@@ -372,7 +372,11 @@ def two_phase_outputs(
         fidelity, capture, scene.layout, buffer, frame_centre_xy=centre, t_end_s=passive_t_end_s,
         **_air_kwargs(scene, out1, passive_air), **(passive_kwargs or {}),
     )  # fmt: skip
-    land = simulate(passive, passive_t_end_s, solver=solver, rtol=rtol, atol=atol, max_steps=steps, adjoint=adjoint)
+    pcoeff, icoeff = LEVEL_STEP_CONTROL[fidelity]
+    land = simulate(
+        passive, passive_t_end_s, solver=solver, rtol=rtol, atol=atol, max_steps=steps, adjoint=adjoint,
+        pcoeff=pcoeff, icoeff=icoeff,
+    )  # fmt: skip
     hard = landing_outputs(land.ts, land.probes, land.status, criteria)
     smooth = smooth_landing_outputs(land.ts, land.probes)
     out = dict(
@@ -521,7 +525,13 @@ class TwoPhaseCaseFunction(AbstractCaseFunction):
         )  # fmt: skip
 
     def __call__(self, params):
-        o = two_phase_outputs(self.scene(params), "rigid", self.buffer, passive_t_end_s=self.t_end_s, criteria=self.criteria)
+        import diffrax
+
+        # a sweep is not differentiated: diffrax's plain while loop instead of the checkpointed one
+        o = two_phase_outputs(
+            self.scene(params), "rigid", self.buffer, passive_t_end_s=self.t_end_s, criteria=self.criteria,
+            adjoint=diffrax.ForwardMode(),
+        )  # fmt: skip
         return dict(
             captured=o["captured"],
             tracking_ok=o["tracking_ok"],

@@ -83,7 +83,6 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jax.scipy.linalg import cho_factor, cho_solve
 
 from .._math import safe_normalize
 from .._validation import _concrete, check_finite, check_positive
@@ -504,6 +503,52 @@ def mass_matrix(system, state):
     return _mass_matrix(system, Jv, Jw)
 
 
+_UNROLLED_SOLVE_MAX_N = 8
+
+
+def _spd_solve(M, b):
+    """Solve ``M x = b`` for the symmetric positive definite mass matrix ``M`` (Cholesky).
+
+    Up to ``_UNROLLED_SOLVE_MAX_N`` unknowns (the rigid rocket: 6) the factorisation and the two
+    triangular solves are unrolled jnp operations, with no LAPACK custom call. Two reasons, both
+    measured on jax/jaxlib 0.10.2 CPU, float64:
+
+    * Reverse-mode AD of a run whose *initial state* depends on the differentiated input (the
+      two-phase landing: the passive phase starts from the captured state) failed to execute with
+      "No registered implementation for untyped custom call to lapack_dtrsm_ffi / lapack_dpotrf_ffi
+      for Host": inside equinox's checkpointed while loop (the no-vjp forward of its custom_vjp,
+      nested in diffrax's outer loop) the LAPACK custom calls lose their typed-FFI
+      ``api_version`` in the lowered HLO. Calls inlined from ``lax.linalg`` lose it too.
+    * For a 6 x 6 matrix the unrolled solve is no slower than two LAPACK calls.
+
+    Larger systems (the flexible rocket: 34) use ``lax.linalg`` (LAPACK)."""
+    n = M.shape[0]
+    if n > _UNROLLED_SOLVE_MAX_N:
+        L = jax.lax.linalg.cholesky(M, symmetrize_input=False)
+        y = jax.lax.linalg.triangular_solve(L, b[:, None], left_side=True, lower=True)
+        x = jax.lax.linalg.triangular_solve(L, y, left_side=True, lower=True, transpose_a=True)
+        return x[:, 0]
+    cols = []  # columns of L below and on the diagonal, as full-length vectors (zeros above)
+    for j in range(n):
+        v = M[:, j]
+        for k in range(j):
+            v = v - cols[k] * cols[k][j]
+        cols.append(jnp.where(jnp.arange(n) >= j, v, 0.0) / jnp.sqrt(v[j]))
+    y = []
+    for i in range(n):
+        acc = b[i]
+        for k in range(i):
+            acc = acc - cols[k][i] * y[k]
+        y.append(acc / cols[i][i])
+    x = [None] * n
+    for i in reversed(range(n)):
+        acc = y[i]
+        for k in range(i + 1, n):
+            acc = acc - cols[i][k] * x[k]
+        x[i] = acc / cols[i][i]
+    return jnp.stack(x)
+
+
 def _mass_matrix(system, Jv, Jw):
     m, inertia = system.all_masses(), system.all_inertias()
     return jnp.einsum("b,bin,bim->nm", m, Jv, Jv) + jnp.einsum("bin,bij,bjm->nm", Jw, inertia, Jw)
@@ -674,7 +719,7 @@ def accelerations(
     if generalized_force is not None:
         Q = Q + generalized_force
     M = _mass_matrix(system, Jv, Jw)
-    u_dot = cho_solve(cho_factor(M), Q)
+    u_dot = _spd_solve(M, Q)
     v_dot, omega_dot, hinge_acc = _split_speeds(system, u_dot)
     r_dot, quat_dot, hinge_rate = _kinematic_rates(q, u, system)
     norm_sq = jnp.sum(state.quat**2, axis=1, keepdims=True)
