@@ -125,6 +125,10 @@ def test_bad_rocket_and_solver_inputs(scene):
         jaxcable.simulate(scene, 10.0, solver="rk99")
     with pytest.raises(ValueError, match="rtol"):
         jaxcable.simulate(scene, 10.0, rtol=-1.0)
+    with pytest.raises(ValueError, match="pcoeff"):
+        jaxcable.simulate(scene, 10.0, pcoeff=float("nan"))
+    with pytest.raises(ValueError, match="icoeff"):
+        jaxcable.simulate(scene, 10.0, icoeff=0.0)
 
 
 def test_pullout_models_order_the_range():
