@@ -208,9 +208,12 @@ class PassiveCaseFunction(AbstractCaseFunction):
     """Apply the sampled wind (False: still air, no aerodynamic loads at all)."""
     seed: int = eqx.field(static=True, default=0)
     """Seed of the gusts (each case's key folds in its inputs, so a case reproduces anywhere)."""
+    cable_damping_s: float = eqx.field(static=True, default=1e-5)
+    """The cables' stiffness-proportional damping beta [s] (not in the paper; a_max depends on it)."""
 
     def __check_init__(self):
         check_choice("fidelity", self.fidelity, SWEEP_FIDELITIES)
+        check_positive("cable_damping_s", self.cable_damping_s, allow_zero=True)
         check_positive("t_end_s", self.t_end_s)
         check_positive("rtol", self.rtol)
         check_positive("atol", self.atol)
@@ -238,8 +241,9 @@ class PassiveCaseFunction(AbstractCaseFunction):
                 gust_intensity=params["gust_intensity"], key=case_key(self.seed, params),
             )  # fmt: skip
         return passive_landing_scene(
-            self.fidelity, capture, self.layout, self.buffer, t_end_s=self.t_end_s, **air
-        )
+            self.fidelity, capture, self.layout, self.buffer, t_end_s=self.t_end_s,
+            cable_damping_s=self.cable_damping_s, **air,
+        )  # fmt: skip
 
     def _simulate(self, scene):
         import diffrax
@@ -315,6 +319,8 @@ class PassiveCaseFunction(AbstractCaseFunction):
             criteria=dict(z_max_m=self.criteria.z_max_m, a_max_g=self.criteria.a_max_g, sigma_max_mpa=self.criteria.sigma_max_mpa),
             buffer={k: np.asarray(getattr(self.buffer, k)).tolist() for k in self.buffer.__dataclass_fields__},
             layout={k: np.asarray(getattr(self.layout, k)).tolist() for k in self.layout.__dataclass_fields__},
+            # only when changed, so that sweeps written before the field existed still resume
+            **({} if self.cable_damping_s == 1e-5 else dict(cable_damping_s=self.cable_damping_s)),
         )
 
 
@@ -333,6 +339,7 @@ def passive_case_fn(
     criteria: LandingCriteria = LandingCriteria(),
     wind: bool = True,
     seed: int = 0,
+    cable_damping_s: float = 1e-5,
 ) -> PassiveCaseFunction:
     """The passive-phase case function with Table 1 defaults and the level's solver settings
     (``LEVEL_DEFAULTS`` of :mod:`jaxcable.arresting.landing` where an argument is ``None``).
@@ -368,6 +375,7 @@ def passive_case_fn(
         n_save=int(n_save or round(t_end_s / SAVE_SPACING_S) + 1),
         wind=bool(wind),
         seed=int(seed),
+        cable_damping_s=float(cable_damping_s),
     )
 
 
@@ -992,6 +1000,7 @@ def _build_parser() -> argparse.ArgumentParser:
     p.add_argument("--solver", choices=sorted(SOLVERS), default=None, help="diffrax solver (default per level)")
     p.add_argument("--rtol", type=positive("--rtol"), default=None, help="relative = absolute tolerance (default per level)")
     p.add_argument("--max-steps", type=positive_int("--max-steps"), default=None, help="solver step budget per case (default per level)")
+    p.add_argument("--cable-damping", type=float, default=1e-5, help="cables' stiffness-proportional damping beta [s] (default 1e-5; the paper gives none, a_max depends on it)")
     p.add_argument("--plot", metavar="PREFIX", help="write PREFIX_plane.png (Fig 21) and PREFIX_histories.png (Figs 18-20)")
     p.add_argument("--plot-cases", type=positive_int("--plot-cases"), default=32, help="cases in the histories plot (default 32)")
     p.add_argument("--process-index", type=int, default=None, help="this host's index in a multi-host sweep (default: jax.process_index())")
@@ -1056,6 +1065,7 @@ def sweep_main(argv: list[str] | None = None) -> int:
             solver=args.solver,
             rtol=args.rtol,
             max_steps=args.max_steps,
+            cable_damping_s=args.cable_damping,
         )
     except ValueError as err:
         print(f"jaxcable sweep: error: {err}", file=sys.stderr)
@@ -1075,7 +1085,7 @@ def sweep_main(argv: list[str] | None = None) -> int:
         title = f"scenario {args.scenario}, {args.phase} phase, fidelity {args.fidelity}, {summary['n_cases']} cases"
         summary["plots"] = [plot_landing_plane(table, f"{args.plot}_plane.png", title)]
         if args.phase == "passive":  # time histories: passive phase only
-            case_fn = case_fn_for(args.phase, args.fidelity, t_end_s=args.t_end, solver=args.solver, rtol=args.rtol, max_steps=args.max_steps)
+            case_fn = case_fn_for(args.phase, args.fidelity, t_end_s=args.t_end, solver=args.solver, rtol=args.rtol, max_steps=args.max_steps, cable_damping_s=args.cable_damping)
             samples = halton_samples(args.n, args.scenario, args.phase, args.seed)
             k = min(args.plot_cases, len(table["case"]))
             hist = run_histories(case_fn, samples, np.asarray(table["case"][:k], int))

@@ -193,11 +193,16 @@ def test_cli_json(problem, at_paper, capsys):
         assert before["criteria"]["hard"][key]["margin"] == pytest.approx(1.0 - hard.max() / limit, rel=1e-12)
         ok &= hard < limit
     assert before["criteria"]["success_rate"] == pytest.approx(ok.mean())
-    # "after" is the best point of the history it prints
+    # "after" is the best point of the history it prints: the lowest objective among the steps
+    # with the highest success rate on the batch
     hist = np.asarray(out["history"]["objective"])
+    rate = np.asarray(out["history"]["success_rate"])
     assert len(hist) == 3
-    assert out["after"]["objective"] == pytest.approx(hist.min(), rel=1e-12)
-    assert out["best_step"] == int(np.argmin(hist))
+    top = np.nonzero(rate == rate.max())[0]
+    best = int(top[np.argmin(hist[top])])
+    assert out["best_step"] == best
+    assert out["after"]["objective"] == pytest.approx(hist[best], rel=1e-12)
+    assert out["after"]["criteria"]["success_rate"] == pytest.approx(rate.max())
 
 
 def test_bad_input_gets_clear_errors(capsys):
@@ -228,6 +233,8 @@ def test_bad_input_gets_clear_errors(capsys):
     with pytest.raises(ValueError, match="n must be a positive integer"):
         design_problem("m_w", n=0)
     assert design_main(["--vars", "m_w,a_p", "--phase", "passive"]) == 2
+    assert design_main(["--alpha", "1.5", "--n", "2"]) == 2  # CVaR level outside [0, 1)
+    assert design_main(["--margin", "-0.1", "--n", "2"]) == 2
     assert "needs phase='full'" in capsys.readouterr().err
     assert design_main(["--vars", "m_w", "--start", "m_w=-3"]) == 2
     assert "m_w must be in" in capsys.readouterr().err

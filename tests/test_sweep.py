@@ -275,6 +275,10 @@ def test_refuses_to_resume_a_different_sweep(reference, tmp_path):
         run_qmc_sweep(out=out, progress=False, **dict(SWEEP, t_end_s=0.7))
     with pytest.raises(ValueError, match="n = 6 < 7"):
         run_qmc_sweep(out=out, progress=False, **dict(SWEEP, n=6))
+    with pytest.raises(ValueError, match="cable_damping_s"):  # another cable damping: another sweep
+        run_qmc_sweep(out=out, progress=False, **dict(SWEEP, cable_damping_s=1e-2))
+    with pytest.raises(ValueError, match="cable_damping_s"):
+        run_qmc_sweep(out=tmp_path / "neg.csv", progress=False, **dict(SWEEP, cable_damping_s=-1.0))
     assert out.read_bytes() == before
     stray = tmp_path / "stray.csv"
     stray.write_text("a,b\n1,2\n")

@@ -34,7 +34,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._validation import check_choice
+from .._validation import check_choice, check_positive
 from ..scene import AbstractScene
 from .buffer import BufferDevice
 from .cable_sets import AleCables, HookPoints, MasslessCables, throat_weights
@@ -314,6 +314,7 @@ def passive_landing_scene(
     from .contact import ContactLaw
 
     check_choice("fidelity", fidelity, FIDELITY_LEVELS)
+    check_positive("cable_damping_s", cable_damping_s, allow_zero=True)
     capture = CaptureState() if capture is None else capture
     layout = ArrestingLayout() if layout is None else layout
     buffer = BufferDevice() if buffer is None else buffer

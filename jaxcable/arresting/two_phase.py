@@ -459,6 +459,7 @@ def run_two_phase(
     criteria: LandingCriteria = LandingCriteria(),
     progress: bool = False,
     passive_air: bool = True,
+    cable_damping_s: float = 1e-5,
     **scene_kwargs,
 ) -> TwoPhaseRun:
     """Run one two-phase landing (default: the deviated case of section IV.A in scenario I).
@@ -476,7 +477,8 @@ def run_two_phase(
     capture = CaptureState(**{f: float(getattr(capture, f)) for f in capture.__dataclass_fields__})
     land = run_landing(
         fidelity, capture, scene.layout, buffer, t_end_s=passive_t_end_s, criteria=criteria, progress=progress,
-        frame_centre_xy=np.asarray(out["frame_centre_at_capture_m"]), **_air_kwargs(scene, out, passive_air),
+        frame_centre_xy=np.asarray(out["frame_centre_at_capture_m"]), cable_damping_s=cable_damping_s,
+        **_air_kwargs(scene, out, passive_air),
     )  # fmt: skip
     res = _to_python(out)
     res.update({k: v for k, v in land.outputs.items() if k != "energy_budget_J"})
@@ -500,8 +502,11 @@ class TwoPhaseCaseFunction(AbstractCaseFunction):
     seed: int = eqx.field(static=True, default=0)
     t_end_s: float = eqx.field(static=True, default=2.0)
     criteria: LandingCriteria = eqx.field(static=True, default=LandingCriteria())
+    cable_damping_s: float = eqx.field(static=True, default=1e-5)
+    """The cables' stiffness-proportional damping beta [s] in the passive phase (not in the paper)."""
 
     def __check_init__(self):
+        check_positive("cable_damping_s", self.cable_damping_s, allow_zero=True)
         if self.fidelity != "rigid":
             raise ValueError(
                 f"fidelity {self.fidelity!r}: two-phase sweeps run at fidelity 'rigid' (the ale/full "
@@ -530,7 +535,7 @@ class TwoPhaseCaseFunction(AbstractCaseFunction):
         # a sweep is not differentiated: diffrax's plain while loop instead of the checkpointed one
         o = two_phase_outputs(
             self.scene(params), "rigid", self.buffer, passive_t_end_s=self.t_end_s, criteria=self.criteria,
-            adjoint=diffrax.ForwardMode(),
+            adjoint=diffrax.ForwardMode(), passive_kwargs=dict(cable_damping_s=self.cable_damping_s),
         )  # fmt: skip
         return dict(
             captured=o["captured"],
@@ -548,11 +553,12 @@ class TwoPhaseCaseFunction(AbstractCaseFunction):
     def describe(self) -> dict:
         return dict(type="TwoPhaseCaseFunction", scenario=self.scenario, fidelity=self.fidelity, seed=self.seed,
                     t_end_s=self.t_end_s, gain_per_s=float(self.gain_per_s),
-                    m_w=float(self.buffer.counterweight_mass_kg), F_f=float(self.buffer.brake_force_N))  # fmt: skip
+                    m_w=float(self.buffer.counterweight_mass_kg), F_f=float(self.buffer.brake_force_N),
+                    **({} if self.cable_damping_s == 1e-5 else dict(cable_damping_s=self.cable_damping_s)))  # fmt: skip
 
 
 def two_phase_case_fn(fidelity="rigid", *, scenario="I", seed=0, buffer=None, layout=None, gain_per_s=None,
-                      t_end_s=2.0, solver=None, rtol=None, max_steps=None, **_ignored):  # fmt: skip
+                      t_end_s=2.0, solver=None, rtol=None, max_steps=None, cable_damping_s=1e-5, **_ignored):  # fmt: skip
     """Factory registered with :func:`jaxcable.sweep.register_case_fn` for ``phase="full"``."""
     check_choice("scenario", scenario, SCENARIO_SETTINGS)
     if solver is not None or rtol is not None or max_steps is not None:
@@ -562,6 +568,7 @@ def two_phase_case_fn(fidelity="rigid", *, scenario="I", seed=0, buffer=None, la
         layout=ArrestingLayout() if layout is None else layout,
         gain_per_s=SCENARIO_SETTINGS[scenario]["gain_per_s"] if gain_per_s is None else gain_per_s,
         scenario=scenario, fidelity=fidelity, seed=int(seed), t_end_s=float(t_end_s),
+        cable_damping_s=float(cable_damping_s),
     )  # fmt: skip
 
 
