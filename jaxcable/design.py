@@ -54,6 +54,13 @@ is ``1 - r``). With weights ``w`` (:class:`ObjectiveWeights`)::
 * The *penalties* are squared hinges (C^1) on the batch mean, so every violating case pulls.
 * The *design cost* is a linear cost of the variables relative to their upper bounds (e.g. the
   counterweight's mass); off by default.
+* **To meet every criterion over the batch**, weigh the worst case, not the mean:
+  ``ObjectiveWeights(expected=0, tail_criterion="worst", alpha=0.9)`` (CLI: ``--expected 0
+  --tail-criterion worst --alpha 0.9``) minimises the CVaR of each case's largest normalised
+  criterion. Measured (``experiments/design_feasibility.py``, rigid level, beta = 1e-2 s): adam
+  meets all three criteria on all 64 training captures from step 23 and on 99% of 128 fresh ones;
+  with the default weights it settles where the mean criteria are lowest and z_max is 2-4% over
+  on a quarter of the cases.
 
 ``phase="full"`` adds two normalised criteria per landing (``CAPTURE_CRITERIA``), with their own
 weights ``capture_criteria`` (default 0.25 each in the expected cost) and ``capture_penalty``
