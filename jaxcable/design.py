@@ -86,12 +86,18 @@ against central differences in float64 (``tests/test_design.py``) and agreeing t
   mode on the shared 2-core machine) and because it is the cheaper mode for small batches: gradient
   / forward cost 2.4x at n = 8 against 2.8x for reverse mode. It scales worse with the batch:
   3.6-5.6x at n = 32 (several runs; the machine's load varies).
-* ``gradient="reverse"``: ``RecursiveCheckpointAdjoint`` + ``jax.grad``: 3.1-3.5x at n = 32;
-  ``checkpoints`` sets its checkpoint count (64 changed nothing measurable). Prefer it for batches
-  of 32 and more. ``BacksolveAdjoint`` cannot be used: :func:`jaxcable.simulate` saves its probes
+* ``gradient="reverse"``: ``RecursiveCheckpointAdjoint`` + ``jax.grad``. ``checkpoints``
+  (default ``REVERSE_CHECKPOINTS`` = 2048) is its checkpoint count: with at least as many
+  checkpoints as solver steps (a rigid-level landing takes ~1100) every step is stored once and
+  none is recomputed. diffrax's own default, ~sqrt(2 max_steps) = 632 for the rigid level's step
+  budget, recomputes part of the solve. Measured (session 5, gradient / forward time): n = 8,
+  2.95x with 2048 against 3.44x with 632; n = 32, 3.0x against 3.55x in one run and 3.80x against
+  3.86x in another (``experiments/bench_design.py --sections cost``); memory ~2048 x 70 floats per
+  case, 37 MB at n = 32. Prefer it for batches of 32 and more (forward mode: 4.1-5.0x there). ``BacksolveAdjoint`` cannot be used: :func:`jaxcable.simulate` saves its probes
   with ``SubSaveAt``, which diffrax's backsolve adjoint does not support.
 
-The goal of <= 3x is met at n = 8 (forward mode) and missed by 10-20 % at n = 32 (reverse mode).
+The goal of <= 3x is met at n = 8 (2.5x forward mode, 2.95x reverse) and not reliably at n = 32
+(reverse mode with 2048 checkpoints: 3.0-3.8x; ``experiments/results/bench_design.md``).
 The gradient is that of the discrete adaptive solve: at the rigid level's rtol = 1e-6 it is 0.6 %
 from the converged gradient (rtol 1e-8: 0.07 %), which is ample for the optimiser but not for a
 finite-difference check (the tests use rtol 1e-8). Measurements: ``experiments/bench_design.py``.
@@ -254,6 +260,8 @@ CAPTURE_CRITERIA = ("capture_margin_m", "tracking_error_m")
 array: the smallest capture margin of the four hooks [m] (met when > 0; larger is better) and the
 true tracking error at capture [m] (met when below the tolerance, 1 m)."""
 
+REVERSE_CHECKPOINTS = 2048
+"""Default checkpoint count of reverse-mode design gradients (module docstring, "Gradients")."""
 TAIL_CRITERIA = ("z_max", "a_max", "sigma_max", "worst", "capture_margin", "tracking_error")
 GRADIENT_MODES = ("forward", "reverse")
 PHASES = ("passive", "full")
@@ -573,12 +581,17 @@ class DesignProblem(eqx.Module):
     gradient: str = eqx.field(static=True, default="forward")
     """``forward`` (ForwardMode + jacfwd) or ``reverse`` (RecursiveCheckpointAdjoint + grad)"""
     checkpoints: int | None = eqx.field(static=True, default=None)
-    """checkpoints of RecursiveCheckpointAdjoint in reverse mode (None: diffrax's default)"""
+    """checkpoints of RecursiveCheckpointAdjoint in reverse mode (None: ``REVERSE_CHECKPOINTS``)"""
 
     def __check_init__(self):
         check_choice("fidelity", self.fidelity, tuple(k for k in FIDELITY_LEVELS if k != "1dof"))
         check_choice("phase", self.phase, PHASES)
         check_choice("gradient", self.gradient, GRADIENT_MODES)
+        if self.checkpoints is not None and (
+            isinstance(self.checkpoints, (bool, np.bool_)) or not isinstance(self.checkpoints, (int, np.integer))
+            or self.checkpoints < 1
+        ):  # fmt: skip
+            raise ValueError(f"checkpoints must be a positive integer or None, got {self.checkpoints!r}")
         check_choice("scenario", self.scenario, ("I", "II", "III"))
         check_positive("t_end_s", self.t_end_s)
         check_positive("rtol", self.rtol)
@@ -830,9 +843,8 @@ def _batch(problem: DesignProblem, x, adjoint):
 def _adjoint(problem):
     if problem.gradient == "forward":
         return diffrax.ForwardMode()
-    if problem.checkpoints is None:
-        return diffrax.RecursiveCheckpointAdjoint()
-    return diffrax.RecursiveCheckpointAdjoint(checkpoints=problem.checkpoints)
+    n = REVERSE_CHECKPOINTS if problem.checkpoints is None else problem.checkpoints
+    return diffrax.RecursiveCheckpointAdjoint(checkpoints=n)
 
 
 def _limits(problem):

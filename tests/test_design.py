@@ -223,6 +223,8 @@ def test_bad_input_gets_clear_errors(capsys):
         design_problem("m_w,a_p", n=2, fidelity="ale")
     with pytest.raises(ValueError, match="gradient"):
         design_problem("m_w", n=2, gradient="backward")
+    with pytest.raises(ValueError, match="checkpoints"):
+        design_problem("m_w", n=2, gradient="reverse", checkpoints=0)
     assert default_phase("m_w,F_f") == "passive" and default_phase("F_f,a_p") == "full"
     with pytest.raises(ValueError, match="alpha"):
         ObjectiveWeights(alpha=1.0)
