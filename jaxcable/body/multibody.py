@@ -82,6 +82,7 @@ stiffness-proportional (Rayleigh) damping ``-(de/du)^T beta K e_dot`` dissipates
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+from jax.scipy.linalg import cho_factor, cho_solve
 import numpy as np
 
 from .._math import safe_normalize
@@ -521,13 +522,14 @@ def _spd_solve(M, b):
       ``api_version`` in the lowered HLO. Calls inlined from ``lax.linalg`` lose it too.
     * For a 6 x 6 matrix the unrolled solve is no slower than two LAPACK calls.
 
-    Larger systems (the flexible rocket: 34) use ``lax.linalg`` (LAPACK)."""
+    Larger systems (the flexible rocket: 34) use ``jax.scipy.linalg.cho_solve`` (LAPACK), so a
+    reverse-mode run of the *full* level whose initial state is differentiated still fails on this
+    jaxlib (no shipped path does that: the two-phase program runs its passive phase at level rigid)."""
     n = M.shape[0]
     if n > _UNROLLED_SOLVE_MAX_N:
-        L = jax.lax.linalg.cholesky(M, symmetrize_input=False)
-        y = jax.lax.linalg.triangular_solve(L, b[:, None], left_side=True, lower=True)
-        x = jax.lax.linalg.triangular_solve(L, y, left_side=True, lower=True, transpose_a=True)
-        return x[:, 0]
+        # jax.scipy's jitted wrappers, not lax.linalg inline: called eagerly (outside jit), the
+        # inline primitives failed with the same "untyped custom call" error (tests/arresting/test_wind.py)
+        return cho_solve(cho_factor(M), b)
     cols = []  # columns of L below and on the diagonal, as full-length vectors (zeros above)
     for j in range(n):
         v = M[:, j]
