@@ -103,6 +103,7 @@ def _land(args) -> int:
             rtol=args.rtol,
             progress=args.fidelity in ("ale", "full") and not args.json,
             **({} if args.fidelity == "1dof" else dict(cable_damping_s=args.cable_damping)),
+            **(dict(n_span_elements=args.span_elements, n_fine=args.fine_elements) if args.fidelity in ("ale", "full") else {}),
         )
     except ValueError as err:
         print(f"jaxcable land: error: {err}", file=sys.stderr)
@@ -140,6 +141,9 @@ def _land_two_phase(args) -> int:
 
     if args.fidelity == "1dof":
         print("jaxcable land: error: --phase full needs --fidelity rigid, ale or full", file=sys.stderr)
+        return 2
+    if (args.span_elements, args.fine_elements) != (16, 8):
+        print("jaxcable land: error: --span-elements/--fine-elements apply to --phase passive only", file=sys.stderr)
         return 2
     try:
         terminal = CaptureState(
@@ -286,6 +290,8 @@ def build_parser() -> argparse.ArgumentParser:
     la.add_argument("--counterweight-mass", type=float, default=920.0, help="m_w, one counterweight [kg] (Table 1: 920)")
     la.add_argument("--brake-force", type=float, default=3.13e5, help="F_f, one brake [N] (Table 1: 3.13e5)")
     la.add_argument("--cable-damping", type=float, default=1e-5, help="cables' stiffness-proportional damping beta [s] (levels rigid, ale, full; default 1e-5: the paper gives none, a_max depends on it; ale/full: a larger beta shortens the explicit step)")
+    la.add_argument("--span-elements", type=int, default=16, help="ALE elements per arresting span (levels ale, full; default 16)")
+    la.add_argument("--fine-elements", type=int, default=8, help="of those, equal fine elements over +-3 m around the hook (levels ale, full; default 8 = 0.75 m; 4 = 1.5 m halves the run time and moves sigma_max by 1-6%%: docs/arresting_design.md)")
     la.add_argument("--t-end", type=_positive("--t-end"), default=2.0, help="time simulated after capture [s] (default 2)")
     la.add_argument("--solver", choices=sorted(SOLVERS), default=None, help="diffrax solver (default per level)")
     la.add_argument("--rtol", type=_positive("--rtol"), default=None, help="relative = absolute tolerance (default per level)")

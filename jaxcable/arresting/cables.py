@@ -112,8 +112,13 @@ def graded_fractions(n_elements: int, centre: float, half_width: float, n_fine: 
     over ``[centre - half_width, centre + half_width]`` (material coordinate from the span start [m]),
     the rest split equally on both sides. Returns a NumPy array of ``n_elements - 1`` fractions."""
     n_coarse = n_elements - n_fine
-    if n_coarse < 2 or n_fine < 1:
-        raise ValueError(f"need n_elements >= n_fine + 2, got n_elements={n_elements}, n_fine={n_fine}")
+    if n_fine < 1:
+        raise ValueError(f"n_fine (fine elements around the hook) must be >= 1, got {n_fine}")
+    if n_coarse < 2:
+        raise ValueError(
+            f"n_span_elements must be >= n_fine + 2 (a coarse element on each side), got "
+            f"n_span_elements={n_elements}, n_fine={n_fine}"
+        )
     lo = max(centre - half_width, 1e-3 * total)
     hi = min(centre + half_width, total * (1 - 1e-3))
     n_left = max(1, int(round(n_coarse * lo / (lo + total - hi))))

@@ -100,6 +100,14 @@ def test_bad_input_gets_clear_errors():
         run_landing("medium")
     with pytest.raises(ValueError, match="cable_damping_s"):
         run_landing("rigid", cable_damping_s=-1e-3)
+    with pytest.raises(ValueError, match="n_fine"):
+        passive_landing_scene("ale", n_fine=0)
+    with pytest.raises(ValueError, match="n_span_elements"):
+        passive_landing_scene("ale", n_span_elements=8, n_fine=7)
+    from jaxcable.cli import main as cli_main
+
+    assert cli_main(["land", "--fidelity", "ale", "--fine-elements", "0"]) == 2
+    assert cli_main(["land", "--phase", "full", "--fine-elements", "4"]) == 2
     with pytest.raises(ValueError, match="vertical central"):
         run_landing("1dof", capture=CaptureState(x_m=3.0))
 
