@@ -234,6 +234,7 @@ def _positive(name):
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from .arresting.passive import DEFAULT_CABLE_DAMPING_S
     from .simulate import SOLVERS
 
     parser = argparse.ArgumentParser(prog="jaxcable", description=__doc__.splitlines()[0])
@@ -289,7 +290,7 @@ def build_parser() -> argparse.ArgumentParser:
     la.add_argument("--seed", type=int, default=0, help="seed of the measurement noise and the gust (--phase full; default 0)")
     la.add_argument("--counterweight-mass", type=float, default=920.0, help="m_w, one counterweight [kg] (Table 1: 920)")
     la.add_argument("--brake-force", type=float, default=3.13e5, help="F_f, one brake [N] (Table 1: 3.13e5)")
-    la.add_argument("--cable-damping", type=float, default=1e-5, help="cables' stiffness-proportional damping beta [s] (levels rigid, ale, full; default 1e-5: the paper gives none, a_max depends on it; ale/full: a larger beta shortens the explicit step)")
+    la.add_argument("--cable-damping", type=float, default=DEFAULT_CABLE_DAMPING_S, help=f"cables' stiffness-proportional damping beta [s] (levels rigid, ale, full; default {DEFAULT_CABLE_DAMPING_S:g}: the paper gives none, a_max depends on it; ale/full: a larger beta shortens the explicit step)")
     la.add_argument("--span-elements", type=int, default=16, help="ALE elements per arresting span (levels ale, full; default 16)")
     la.add_argument("--fine-elements", type=int, default=8, help="of those, equal fine elements over +-3 m around the hook (levels ale, full; default 8 = 0.75 m; 4 = 1.5 m halves the run time and moves sigma_max by 1-6%%: docs/arresting_design.md)")
     la.add_argument("--t-end", type=_positive("--t-end"), default=2.0, help="time simulated after capture [s] (default 2)")

@@ -57,7 +57,7 @@ import numpy as np
 from ._validation import check_choice, check_positive
 from .arresting.buffer import BufferDevice
 from .arresting.layout import ArrestingLayout, CaptureState
-from .arresting.passive import G_CRITERIA, LandingCriteria
+from .arresting.passive import DEFAULT_CABLE_DAMPING_S, G_CRITERIA, LandingCriteria
 from .arresting.uncertainty import (
     CAPTURE_VZ_M_S,
     PHASES,
@@ -208,7 +208,7 @@ class PassiveCaseFunction(AbstractCaseFunction):
     """Apply the sampled wind (False: still air, no aerodynamic loads at all)."""
     seed: int = eqx.field(static=True, default=0)
     """Seed of the gusts (each case's key folds in its inputs, so a case reproduces anywhere)."""
-    cable_damping_s: float = eqx.field(static=True, default=1e-5)
+    cable_damping_s: float = eqx.field(static=True, default=DEFAULT_CABLE_DAMPING_S)
     """The cables' stiffness-proportional damping beta [s] (not in the paper; a_max depends on it)."""
 
     def __check_init__(self):
@@ -320,7 +320,7 @@ class PassiveCaseFunction(AbstractCaseFunction):
             buffer={k: np.asarray(getattr(self.buffer, k)).tolist() for k in self.buffer.__dataclass_fields__},
             layout={k: np.asarray(getattr(self.layout, k)).tolist() for k in self.layout.__dataclass_fields__},
             # only when changed, so that sweeps written before the field existed still resume
-            **({} if self.cable_damping_s == 1e-5 else dict(cable_damping_s=self.cable_damping_s)),
+            **({} if self.cable_damping_s == DEFAULT_CABLE_DAMPING_S else dict(cable_damping_s=self.cable_damping_s)),
         )
 
 
@@ -339,7 +339,7 @@ def passive_case_fn(
     criteria: LandingCriteria = LandingCriteria(),
     wind: bool = True,
     seed: int = 0,
-    cable_damping_s: float = 1e-5,
+    cable_damping_s: float = DEFAULT_CABLE_DAMPING_S,
 ) -> PassiveCaseFunction:
     """The passive-phase case function with Table 1 defaults and the level's solver settings
     (``LEVEL_DEFAULTS`` of :mod:`jaxcable.arresting.landing` where an argument is ``None``).
@@ -1000,7 +1000,7 @@ def _build_parser() -> argparse.ArgumentParser:
     p.add_argument("--solver", choices=sorted(SOLVERS), default=None, help="diffrax solver (default per level)")
     p.add_argument("--rtol", type=positive("--rtol"), default=None, help="relative = absolute tolerance (default per level)")
     p.add_argument("--max-steps", type=positive_int("--max-steps"), default=None, help="solver step budget per case (default per level)")
-    p.add_argument("--cable-damping", type=float, default=1e-5, help="cables' stiffness-proportional damping beta [s] (default 1e-5; the paper gives none, a_max depends on it)")
+    p.add_argument("--cable-damping", type=float, default=DEFAULT_CABLE_DAMPING_S, help=f"cables' stiffness-proportional damping beta [s] (default {DEFAULT_CABLE_DAMPING_S:g}; the paper gives none, a_max depends on it)")
     p.add_argument("--plot", metavar="PREFIX", help="write PREFIX_plane.png (Fig 21) and PREFIX_histories.png (Figs 18-20)")
     p.add_argument("--plot-cases", type=positive_int("--plot-cases"), default=32, help="cases in the histories plot (default 32)")
     p.add_argument("--process-index", type=int, default=None, help="this host's index in a multi-host sweep (default: jax.process_index())")

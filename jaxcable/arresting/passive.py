@@ -269,6 +269,11 @@ def smooth_landing_outputs(ts, probes, widths: SmoothingWidths = SmoothingWidths
     )
 
 
+DEFAULT_CABLE_DAMPING_S = 1e-5
+"""The cables' stiffness-proportional damping beta [s] of every scene, sweep and design unless
+given (the paper gives none; reasons in :func:`passive_landing_scene`)."""
+
+
 def passive_landing_scene(
     fidelity: str = "full",
     capture: CaptureState | None = None,
@@ -281,7 +286,7 @@ def passive_landing_scene(
     fine_half_width_m: float = 3.0,
     n_rocket_bodies: int = 5,
     t_end_s: float = 2.0,
-    cable_damping_s: float = 1e-5,
+    cable_damping_s: float = DEFAULT_CABLE_DAMPING_S,
     frame_centre_xy=None,
     wind=None,
     aero=None,

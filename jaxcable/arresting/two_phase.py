@@ -80,7 +80,7 @@ from .buffer import BufferDevice
 from .cable_sets import throat_weights
 from .control import TrackingController, filtered_measurement, measurement_noise_track, target_point
 from .layout import HOOK_OF_CABLE, ArrestingLayout, CaptureState
-from .passive import LandingCriteria, landing_outputs, passive_landing_scene, smooth_landing_outputs
+from .passive import DEFAULT_CABLE_DAMPING_S, LandingCriteria, landing_outputs, passive_landing_scene, smooth_landing_outputs
 from .wind import AeroCoefficients, WindField, rocket_aero_loads
 
 __all__ = [
@@ -459,7 +459,7 @@ def run_two_phase(
     criteria: LandingCriteria = LandingCriteria(),
     progress: bool = False,
     passive_air: bool = True,
-    cable_damping_s: float = 1e-5,
+    cable_damping_s: float = DEFAULT_CABLE_DAMPING_S,
     **scene_kwargs,
 ) -> TwoPhaseRun:
     """Run one two-phase landing (default: the deviated case of section IV.A in scenario I).
@@ -502,7 +502,7 @@ class TwoPhaseCaseFunction(AbstractCaseFunction):
     seed: int = eqx.field(static=True, default=0)
     t_end_s: float = eqx.field(static=True, default=2.0)
     criteria: LandingCriteria = eqx.field(static=True, default=LandingCriteria())
-    cable_damping_s: float = eqx.field(static=True, default=1e-5)
+    cable_damping_s: float = eqx.field(static=True, default=DEFAULT_CABLE_DAMPING_S)
     """The cables' stiffness-proportional damping beta [s] in the passive phase (not in the paper)."""
 
     def __check_init__(self):
@@ -554,11 +554,11 @@ class TwoPhaseCaseFunction(AbstractCaseFunction):
         return dict(type="TwoPhaseCaseFunction", scenario=self.scenario, fidelity=self.fidelity, seed=self.seed,
                     t_end_s=self.t_end_s, gain_per_s=float(self.gain_per_s),
                     m_w=float(self.buffer.counterweight_mass_kg), F_f=float(self.buffer.brake_force_N),
-                    **({} if self.cable_damping_s == 1e-5 else dict(cable_damping_s=self.cable_damping_s)))  # fmt: skip
+                    **({} if self.cable_damping_s == DEFAULT_CABLE_DAMPING_S else dict(cable_damping_s=self.cable_damping_s)))  # fmt: skip
 
 
 def two_phase_case_fn(fidelity="rigid", *, scenario="I", seed=0, buffer=None, layout=None, gain_per_s=None,
-                      t_end_s=2.0, solver=None, rtol=None, max_steps=None, cable_damping_s=1e-5, **_ignored):  # fmt: skip
+                      t_end_s=2.0, solver=None, rtol=None, max_steps=None, cable_damping_s=DEFAULT_CABLE_DAMPING_S, **_ignored):  # fmt: skip
     """Factory registered with :func:`jaxcable.sweep.register_case_fn` for ``phase="full"``."""
     check_choice("scenario", scenario, SCENARIO_SETTINGS)
     if solver is not None or rtol is not None or max_steps is not None:
