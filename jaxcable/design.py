@@ -93,7 +93,8 @@ against central differences in float64 (``tests/test_design.py``) and agreeing t
   budget, recomputes part of the solve. Measured (session 5, gradient / forward time): n = 8,
   2.95x with 2048 against 3.44x with 632; n = 32, 3.0x against 3.55x in one run and 3.80x against
   3.86x in another (``experiments/bench_design.py --sections cost``); memory ~2048 x 70 floats per
-  case, 37 MB at n = 32. Prefer it for batches of 32 and more (forward mode: 4.1-5.0x there). ``BacksolveAdjoint`` cannot be used: :func:`jaxcable.simulate` saves its probes
+  case, 37 MB at n = 32. Prefer it for batches of 32 and more (forward mode: 4.1-5.0x there).
+  ``BacksolveAdjoint`` cannot be used: :func:`jaxcable.simulate` saves its probes
   with ``SubSaveAt``, which diffrax's backsolve adjoint does not support.
 
 The goal of <= 3x is met at n = 8 (2.5x forward mode, 2.95x reverse) and not reliably at n = 32
@@ -198,6 +199,7 @@ from .arresting.buffer import BufferDevice
 from .arresting.landing import LEVEL_DEFAULTS
 from .arresting.layout import ArrestingLayout, CaptureState
 from .arresting.passive import (
+    DEFAULT_CABLE_DAMPING_S,
     FIDELITY_LEVELS,
     LandingCriteria,
     SmoothingWidths,
@@ -560,7 +562,7 @@ class DesignProblem(eqx.Module):
     criterion is normalised as ``r = 1 - margin / capture_reference_m`` (0: centred, 1: the edge)"""
     margin_width_m: jax.Array = eqx.field(converter=_float_array, default=0.02)
     """width of the soft minimum over the four hooks' capture margins [m], shape ()"""
-    cable_damping_s: float = eqx.field(static=True, default=1e-5)
+    cable_damping_s: float = eqx.field(static=True, default=DEFAULT_CABLE_DAMPING_S)
     """The cables' stiffness-proportional damping beta [s] in the passive phase (the paper gives no
     value; 1e-5 is the scenes' default, chosen for the ALE level's step cost). a_max depends strongly
     on it: the cable-counterweight mode rings with beta = 1e-5 (README, sensitivity table)."""
@@ -587,11 +589,8 @@ class DesignProblem(eqx.Module):
         check_choice("fidelity", self.fidelity, tuple(k for k in FIDELITY_LEVELS if k != "1dof"))
         check_choice("phase", self.phase, PHASES)
         check_choice("gradient", self.gradient, GRADIENT_MODES)
-        if self.checkpoints is not None and (
-            isinstance(self.checkpoints, (bool, np.bool_)) or not isinstance(self.checkpoints, (int, np.integer))
-            or self.checkpoints < 1
-        ):  # fmt: skip
-            raise ValueError(f"checkpoints must be a positive integer or None, got {self.checkpoints!r}")
+        if self.checkpoints is not None:
+            _check_count("checkpoints", self.checkpoints, 1, " or None")
         check_choice("scenario", self.scenario, ("I", "II", "III"))
         check_positive("t_end_s", self.t_end_s)
         check_positive("rtol", self.rtol)
@@ -689,8 +688,7 @@ def design_problem(
     from .arresting.uncertainty import captures_from_samples, halton_samples, scenario_settings
 
     space = DesignSpace.from_names(variables, bounds)
-    if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, np.integer)) or n < 1:
-        raise ValueError(f"n must be a positive integer (captures in the batch), got {n!r}")
+    _check_count("n", n, 1, " (captures in the batch)")
     phase = default_phase(space.names) if phase is None else phase
     check_choice("phase", phase, PHASES)
     for name in space.names:  # the clear a_p / phase error before any sampling
@@ -1052,9 +1050,15 @@ def _record(problem):
     return record
 
 
+def _check_count(name, value, minimum, what=""):
+    """``value`` must be an integer (not a bool) >= ``minimum`` (0 or 1); the error names ``name``."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value < minimum:
+        kind = "positive" if minimum == 1 else "non-negative"
+        raise ValueError(f"{name} must be a {kind} integer{what}, got {value!r}")
+
+
 def _check_steps(steps):
-    if isinstance(steps, (bool, np.bool_)) or not isinstance(steps, (int, np.integer)) or steps < 0:
-        raise ValueError(f"steps must be a non-negative integer, got {steps!r}")
+    _check_count("steps", steps, 0)
 
 
 def optax_minimise(
@@ -1275,8 +1279,8 @@ def design_main(argv: list[str] | None = None) -> int:
     parser.add_argument("--lr", type=float, default=0.1, help="adam learning rate in the unconstrained variables (default 0.1)")
     parser.add_argument("--t-end", type=float, default=1.2, help="time simulated after capture [s] (default 1.2)")
     parser.add_argument(
-        "--cable-damping", type=float, default=1e-5,
-        help="cable stiffness-proportional damping beta [s] (default 1e-5; the paper gives none, a_max depends on it)",
+        "--cable-damping", type=float, default=DEFAULT_CABLE_DAMPING_S,
+        help=f"cable stiffness-proportional damping beta [s] (default {DEFAULT_CABLE_DAMPING_S:g}; the paper gives none, a_max depends on it)",
     )  # fmt: skip
     parser.add_argument("--margin", type=float, default=0.0, help="fractional margin the penalties demand below each limit (default 0; 0.02: criteria < 98%% of their limits)")
     parser.add_argument("--tail-criterion", choices=list(TAIL_CRITERIA), default="a_max", help="criterion whose CVaR is the tail risk (default a_max; worst: each case's largest normalised criterion, for designs that must meet every criterion)")
@@ -1326,17 +1330,18 @@ def design_main(argv: list[str] | None = None) -> int:
         return 2
 
     kept = {}
+    record = _record(problem)
 
     def progress(i, j, x, aux):
         # keep the start's and the best point's batch results for the report (no re-evaluation)
         # "best": the lowest objective among the designs with the highest success rate on the
         # batch (the objective alone may prefer a design that trades a small violation for lower
         # mean criteria: experiments/results/design_feasibility.md)
-        success = float(np.mean(np.all(_hard_ok(problem, aux), axis=1)))
+        success = record(aux)[1]
         if i == 0:
             kept["start"] = (x, j, aux)
-        if "best" not in kept or (success, -j) > (kept["best"][3], -kept["best"][1]):
-            kept["best"] = (x, j, aux, success, i)
+        if "best" not in kept or (success, -j) > (kept["best"]["success"], -kept["best"]["j"]):
+            kept["best"] = dict(x=x, j=j, aux=aux, success=success, step=i)
         if not args.json:
             print(f"  step {i:3d}  J = {j:.5f}  " + ", ".join(f"{k} = {v:.6g}" for k, v in problem.space.as_dict(x).items()), flush=True)
 
@@ -1344,7 +1349,8 @@ def design_main(argv: list[str] | None = None) -> int:
     hist = optimise(problem, x0, steps=args.steps, learning_rate=args.lr, callback=progress)
     wall = time.perf_counter() - t0
     before = _evaluation_report(problem, *kept["start"])
-    after = _evaluation_report(problem, *kept["best"][:3])
+    best = kept["best"]
+    after = _evaluation_report(problem, best["x"], best["j"], best["aux"])
     out = dict(
         variables=list(problem.space.names),
         bounds={n: [float(lo), float(hi)] for n, lo, hi in zip(problem.space.names, np.asarray(problem.space.lower), np.asarray(problem.space.upper))},
@@ -1358,7 +1364,7 @@ def design_main(argv: list[str] | None = None) -> int:
         gradient=args.gradient,
         before=before,
         after=after,
-        best_step=kept["best"][4],
+        best_step=best["step"],
         history=dict(objective=hist.objective.tolist(), success_rate=hist.success_rate.tolist()),
         wall_s=wall,
         phase=problem.phase,
@@ -1370,7 +1376,7 @@ def design_main(argv: list[str] | None = None) -> int:
         print(json.dumps(out))
     else:
         _print_report("before (start design)", before)
-        _print_report(f"after (best of {args.steps} adam steps: step {kept['best'][4]}, the lowest objective among the highest success rate)", after)
+        _print_report(f"after (best of {args.steps} adam steps: step {best['step']}, the lowest objective among the highest success rate)", after)
         print(f"  wall time {wall:.1f} s (includes compiling)")
     return 0
 
