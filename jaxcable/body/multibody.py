@@ -82,8 +82,8 @@ stiffness-proportional (Rayleigh) damping ``-(de/du)^T beta K e_dot`` dissipates
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-from jax.scipy.linalg import cho_factor, cho_solve
 import numpy as np
+from jax.scipy.linalg import cho_factor, cho_solve
 
 from .._math import safe_normalize
 from .._validation import _concrete, check_finite, check_positive
