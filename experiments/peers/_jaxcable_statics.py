@@ -1,10 +1,12 @@
-"""Static equilibrium of jaxcable's ALE cable with both ends pinned, shared by the peer scripts
-(``moordyn_line.py``, ``exudyn_cable.py``): Newton on the generalised forces of
-:func:`jaxcable.line.ale.assemble` over the internal nodes' positions, from a stretched guess."""
+"""Statics shared by the peer cable scripts (``moordyn_line.py``, ``exudyn_cable.py``): the static
+equilibrium of jaxcable's ALE cable with both ends pinned (Newton on the generalised forces of
+:func:`jaxcable.line.ale.assemble` over the internal nodes' positions, from a stretched guess), and
+Irvine's elastic catenary, the closed form both compare against."""
 
 from __future__ import annotations
 
 import numpy as np
+from scipy.optimize import brentq
 
 
 def static_newton(cable, s, gravity, guess, scale, max_iter: int = 50):
@@ -40,3 +42,14 @@ def static_newton(cable, s, gravity, guess, scale, max_iter: int = 50):
     F, _ = step(x)
     assert float(jnp.max(jnp.abs(F))) < 1e-10, "jaxcable static Newton did not converge"
     return np.asarray(r0.at[1:-1].set(x.reshape(n - 2, 3)))
+
+
+def irvine(EA, w, L0, span):
+    """Irvine's elastic catenary, level supports (Hooke): mid-material-point sag [m], H [N]."""
+
+    def span_error(H):
+        return H * L0 / EA + 2 * H / w * np.arcsinh(w * L0 / (2 * H)) - span
+
+    H = brentq(span_error, 1e-6 * w * L0, 1e6 * w * L0)
+    sag = w * L0**2 / (8 * EA) + H / w * (np.sqrt(1 + (w * L0 / (2 * H)) ** 2) - 1)
+    return sag, H

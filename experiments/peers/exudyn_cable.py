@@ -42,7 +42,6 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-from scipy.optimize import brentq
 
 ROOT = Path(__file__).resolve().parents[2]
 EA_N = 1e5
@@ -51,17 +50,6 @@ LENGTH_M = 10.0
 EI_NM2 = 1e-2
 G_MPS2 = 9.81
 TOL = 1e-8
-
-
-def irvine(EA, w, L0, span):
-    """Irvine's elastic catenary, level supports (Hooke): mid-material-point sag [m], H [N]."""
-
-    def span_error(H):
-        return H * L0 / EA + 2 * H / w * np.arcsinh(w * L0 / (2 * H)) - span
-
-    H = brentq(span_error, 1e-6 * w * L0, 1e6 * w * L0)
-    sag = w * L0**2 / (8 * EA) + H / w * (np.sqrt(1 + (w * L0 / (2 * H)) ** 2) - 1)
-    return sag, H
 
 
 # ----------------------------------------------------------------------------- Exudyn
@@ -257,6 +245,8 @@ def main(argv=None):
     ex_static = run_exudyn_static(n_el)
     jc_static = jaxcable_static(n_el)
     w = RHOA_KG_PER_M * G_MPS2
+    from _jaxcable_statics import irvine
+
     sag_ref, H_ref = irvine(EA_N, w, LENGTH_M, LENGTH_M)
     mid = n_el // 2
     diff = np.linalg.norm(ex["mid"] - jc["mid"], axis=-1)

@@ -53,7 +53,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-from scipy.optimize import brentq
 
 ROOT = Path(__file__).resolve().parents[2]
 EA_N = 1e6
@@ -93,17 +92,6 @@ RK4      tScheme
 60       TmaxIC
 ------------------------- need this line -------------------------------------
 """
-
-
-def irvine(EA, w, L0, span):
-    """Irvine's elastic catenary, level supports (Hooke): mid-material-point sag [m], H [N]."""
-
-    def span_error(H):
-        return H * L0 / EA + 2 * H / w * np.arcsinh(w * L0 / (2 * H)) - span
-
-    H = brentq(span_error, 1e-6 * w * L0, 1e6 * w * L0)
-    sag = w * L0**2 / (8 * EA) + H / w * (np.sqrt(1 + (w * L0 / (2 * H)) ** 2) - 1)
-    return sag, H
 
 
 # ----------------------------------------------------------------------------- MoorDyn
@@ -283,6 +271,8 @@ def main(argv=None):
         os.chdir(cwd)
 
     w = RHOA_KG_PER_M * G_MPS2
+    from _jaxcable_statics import irvine
+
     sag_ref, H_ref = irvine(EA_N, w, LENGTH_M, SPAN_M)
     t0 = time.perf_counter()
     jc_static = jaxcable_static(nseg, md["static_pos"])
