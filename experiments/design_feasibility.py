@@ -23,10 +23,6 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
-POOR_STARTS = {  # as experiments/bench_design.py
-    "heavy_weak": {"m_w": 4000.0, "F_f": 2.3e5},  # long stroke, high deceleration peaks
-    "light_strong": {"m_w": 500.0, "F_f": 4.6e5},  # short stroke, high deceleration and load
-}
 
 
 def main(argv=None):
@@ -52,6 +48,8 @@ def main(argv=None):
         ObjectiveWeights, batch_criteria, criteria_summary, design_problem, optimise, paper_start,
     )  # fmt: skip
     from jaxcable.provenance import machine_info
+
+    from bench_design import POOR_STARTS  # the benchmark's poor start designs (this directory)
 
     jaxcable.enable_x64()
     t_all = time.perf_counter()
@@ -85,7 +83,8 @@ def main(argv=None):
         runs.append(dict(start=start, margin=margin, wall_s=wall, history=hist.as_json(), points=rows))
         print(json.dumps(dict(start=start, margin=margin, wall_s=round(wall, 1), points=rows)), flush=True)
     result = dict(
-        machine=machine_info(), args=vars(args), runs=runs, total_s=time.perf_counter() - t_all,
+        machine=machine_info(), args=dict(vars(args), out=_relative(args.out)), runs=runs,
+        total_s=time.perf_counter() - t_all,
     )  # fmt: skip
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -93,6 +92,12 @@ def main(argv=None):
     out.with_suffix(".md").write_text(_markdown(result))
     print(_markdown(result))
     return 0
+
+
+def _relative(path):
+    """``path`` relative to the repository when inside it (results files name no machine paths)."""
+    p = Path(path).resolve()
+    return str(p.relative_to(ROOT)) if p.is_relative_to(ROOT) else str(path)
 
 
 def _markdown(res):
