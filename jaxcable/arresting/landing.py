@@ -28,13 +28,17 @@ LEVEL_DEFAULTS = {
     # not accuracy, so tightening costs little. rigid at 1e-6: 2e-7 error for 1.2x the cost of 1e-4;
     # ale/full at 1e-5: 5e-5 / 1e-6 error, at the a_max rounding sensitivity (2e-5), 1e-6 costs
     # 1.18x more. Implicit Kvaerno3/5 are 100-1000x slower on these scenes.
+    # ale/full use Bosh3 (session 6): their steps are set by stability (the fine elements' axial
+    # modes, the contact's stick creep), where a 3-stage solver covers more time per evaluation
+    # than Tsit5's 6: 1 s full design case 9.97 -> 6.71 s, outputs equal to Tsit5's to 6e-5
+    # (experiments/results/bench_contact_slip.md, docs/arresting_design.md "Session 6").
     "rigid": ("tsit5", 1e-6, 1e-6, 200_000),
-    "ale": ("tsit5", 1e-5, 1e-5, 400_000),
-    "full": ("tsit5", 1e-5, 1e-5, 400_000),
+    "ale": ("bosh3", 1e-5, 1e-5, 400_000),
+    "full": ("bosh3", 1e-5, 1e-5, 400_000),
 }
 
 LEVEL_STEP_CONTROL = {
-    # level: (pcoeff, icoeff) of the PID step-size controller. ale/full run Tsit5 at its stability
+    # level: (pcoeff, icoeff) of the PID step-size controller. ale/full run at the solver's stability
     # limit (the fine elements' axial modes), where the classic I controller rejects ~25% of the
     # steps; a PI controller (0.4, 0.3) rejects ~5%: 1 s full design case 23.9k -> 19.9k attempted
     # steps, run 25.8 -> 21.1 s, outputs equal to 2e-5 (docs/arresting_design.md, session 5).
@@ -75,7 +79,8 @@ def run_landing(
 ) -> LandingRun:
     """Run one passive-deceleration case (default: the design case, Table 1) and report it.
 
-    ``progress`` shows a progress bar of simulated time (the ale and full levels take minutes).
+    ``progress`` shows a progress bar of simulated time (the ale and full levels take 5-10 s per
+    simulated second on a 2-core CPU after compiling).
     The run returns NumPy arrays and is not differentiated, so it integrates with diffrax's plain
     while loop (``diffrax.ForwardMode()``), not the checkpointed loop that reverse-mode AD needs
     (measured: 0-4% less time on the full level, within the timing noise). Differentiable runs:

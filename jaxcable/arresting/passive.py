@@ -273,6 +273,10 @@ DEFAULT_CABLE_DAMPING_S = 1e-5
 """The cables' stiffness-proportional damping beta [s] of every scene, sweep and design unless
 given (the paper gives none; reasons in :func:`passive_landing_scene`)."""
 
+DEFAULT_CONTACT_SLIP_M_S = 0.5
+"""Hook-cable friction: slip speed ``v_s`` [m/s] at which ``mu`` reaches ``mu_s`` in the ale/full
+scenes unless a ``contact`` law is given (``v_d = 2.5 v_s``; reasons in :func:`passive_landing_scene`)."""
+
 
 def passive_landing_scene(
     fidelity: str = "full",
@@ -291,9 +295,21 @@ def passive_landing_scene(
     wind=None,
     aero=None,
     wind_time_offset_s=0.0,
+    cable_model: str | None = None,
+    rocket_params=None,
 ):
     """The passive-deceleration scene with the paper's Table 1 defaults at a fidelity level
     (``rigid``, ``ale`` or ``full``; the ``1dof`` level is run by :func:`run_landing`).
+
+    A level is a choice of components: the rocket (``rigid``/``ale``: one rigid body, hooks welded;
+    ``full``: the flexible rocket with hinged, sprung hooks) and the cables (``cable_model``:
+    ``"massless"``, the massless elastic cables of the ``rigid`` level, or ``"ale"``, the ALE cables
+    with mass and hook contact; default ``"massless"`` at ``rigid``, ``"ale"`` at ``ale`` and
+    ``full``). ``cable_model="massless"`` at ``full`` keeps the flexible rocket and the sprung hooks
+    and drops the cables' mass: the ``rhoA -> 0`` member of the full level, which the 1-DOF limit
+    test uses (``tests/arresting/test_passive.py``). ``rocket_params``
+    (:class:`~jaxcable.body.landing_rocket.LandingRocketParams`, default Table 1) sets the rocket's
+    and the hooks' values (e.g. the hook spring ``k_h``).
 
     Defaults chosen by measurement (``experiments/bench_land.py``; 0.3 s of the design case, ale):
 
@@ -303,9 +319,16 @@ def passive_landing_scene(
       Low beta leaves the cable-counterweight mode (~30 rad/s) almost undamped, and a_max depends
       strongly on it (see the README's sensitivity table): a modelling uncertainty of the paper.
     * contact friction: Coulomb with the STEP law, static regime regularised over
-      ``v_s = 0.2`` m/s (``v_d = 0.5`` m/s): the stick "creep" damping ``mu f_n / v_s`` on a 3 kg
-      cable node was the stiffest rate of the model at v_s = 0.01 m/s (22k steps per 0.3 s against
-      2.7k at 0.3 m/s, z_max within 0.03%).
+      ``v_s = 0.5`` m/s (``v_d = 1.25`` m/s): the stick "creep" damping ``1.5 mu_s f_n / v_s`` on a
+      ~3 kg cable node at the hook is the stiffest rate of the model once the hook load has grown
+      (-7.6e4 1/s at t = 0.7 s with v_s = 0.2 m/s; real, so it holds an explicit solver to ~5e-5 s
+      steps). Over 1 s landings of the design case and a deviated, tilted capture at the full level,
+      v_s = 0.05, 0.1, 0.2 and 0.5 m/s give z_max, sigma_max and the stop time within 0.13% of each
+      other and a_max within 0.5% (the ringing peak's own spread); 1.0 m/s moves a_max by 1.7%.
+      In the passive phase of the two-phase deviated case (13 m off centre, the cables slide far over
+      the hooks) 0.5 m/s lowers sigma_max by 1.25% against 0.05 m/s (0.2 m/s: 0.5%).
+      0.5 m/s halves the steps against 0.2 m/s (session 6, ``experiments/bench_contact_slip.py``;
+      session 2 had chosen 0.2 m/s on 0.3 s landings, before the hook load grows).
     * 16 span elements, 8 of them over +-3 m around each hook (0.75 m), 2 per tower.
 
     ``frame_centre_xy`` (2,) [m]: centre of the capture frame (the sliders' positions) at capture;
@@ -319,6 +342,11 @@ def passive_landing_scene(
     from .contact import ContactLaw
 
     check_choice("fidelity", fidelity, FIDELITY_LEVELS)
+    if fidelity == "1dof":
+        raise ValueError("fidelity '1dof' has no scene: run it with run_landing('1dof')")
+    if cable_model is None:
+        cable_model = "massless" if fidelity == "rigid" else "ale"
+    check_choice("cable_model", cable_model, ("massless", "ale"))
     check_positive("cable_damping_s", cable_damping_s, allow_zero=True)
     capture = CaptureState() if capture is None else capture
     layout = ArrestingLayout() if layout is None else layout
@@ -326,9 +354,9 @@ def passive_landing_scene(
     check_hooks_inside_frame(layout, capture)
     gravity = jnp.array([0.0, 0.0, -9.81])
     if fidelity == "full":
-        rocket = flexible_landing_rocket(n_bodies=n_rocket_bodies, hinged_hooks=True)
+        rocket = flexible_landing_rocket(n_bodies=n_rocket_bodies, hinged_hooks=True, params=rocket_params)
     else:
-        rocket = rigid_landing_rocket(hinged_hooks=False)
+        rocket = rigid_landing_rocket(hinged_hooks=False, params=rocket_params)
     state0 = rocket.initial_state(capture.position, capture.velocity, capture.rotation_vector, capture.omega)
     pos0, vel0 = rocket.hook_points_world(state0)
     hooks0 = HookPoints(positions=pos0, velocities=vel0)
@@ -344,10 +372,11 @@ def passive_landing_scene(
     pos0, vel0 = rocket.hook_points_world(state0)
     hooks0 = HookPoints(positions=pos0, velocities=vel0)
     frame_centre = capture.position[:2] if frame_centre_xy is None else jnp.asarray(frame_centre_xy)
-    if fidelity == "rigid":
+    if cable_model == "massless":
         cables = MasslessCables.build(layout, buffer, frame_centre, hooks0, w, damping_s=cable_damping_s)
     else:
-        contact = ContactLaw(v_s=0.2, v_d=0.5) if contact is None else contact
+        if contact is None:
+            contact = ContactLaw(v_s=DEFAULT_CONTACT_SLIP_M_S, v_d=2.5 * DEFAULT_CONTACT_SLIP_M_S)
         cables = AleCables.build(
             layout,
             buffer,
