@@ -17,6 +17,8 @@ Usage:
     python experiments/bench_contact_slip.py --v-s 0.2 0.5 --solvers tsit5 bosh3 --tag timing
         # the timing rows again on a quiet machine: bench_contact_slip_timing.{json,md}
     python experiments/bench_contact_slip.py --cases two_phase_I --v-s 0.05 0.2 0.5 1.0 --solvers tsit5 bosh3 --tag two_phase
+    python experiments/bench_contact_slip.py --cases design two_phase_I --v-s 0.5 --solvers tsit5 bosh3 \
+        --rtols 1e-7 1e-5 1e-4 1e-3 --tag rtol     # tolerance study at the default v_s
 """
 
 from __future__ import annotations
@@ -61,7 +63,7 @@ def _scene_kwargs(case):
     )  # fmt: skip
 
 
-def _run(level, case, v_s, t_end, solver=None):
+def _run(level, case, v_s, t_end, solver=None, rtol=None):
     import jax
 
     from jaxcable.arresting.contact import ContactLaw
@@ -69,8 +71,9 @@ def _run(level, case, v_s, t_end, solver=None):
     from jaxcable.arresting.passive import passive_landing_scene
     from jaxcable.simulate import simulate
 
-    default_solver, rtol, atol, max_steps = LEVEL_DEFAULTS[level]
+    default_solver, default_rtol, default_atol, max_steps = LEVEL_DEFAULTS[level]
     solver = solver or default_solver
+    rtol, atol = (rtol, rtol) if rtol else (default_rtol, default_atol)
     pcoeff, icoeff = LEVEL_STEP_CONTROL[level]
     scene = passive_landing_scene(level, contact=ContactLaw(v_s=v_s, v_d=2.5 * v_s), t_end_s=t_end, **_scene_kwargs(case))
     kw = dict(solver=solver, rtol=rtol, atol=atol, max_steps=max_steps, pcoeff=pcoeff, icoeff=icoeff)
@@ -82,7 +85,7 @@ def _run(level, case, v_s, t_end, solver=None):
     jax.block_until_ready(res.outputs)
     t2 = time.perf_counter()
     return dict(
-        level=level, case=case, solver=solver, v_s=v_s, v_d=2.5 * v_s, first_s=t1 - t0, run_s=t2 - t1,
+        level=level, case=case, solver=solver, rtol=rtol, v_s=v_s, v_d=2.5 * v_s, first_s=t1 - t0, run_s=t2 - t1,
         steps=int(res.num_steps), rejected=int(res.num_rejected), status=res.status_message,
         load=[round(x, 2) for x in os.getloadavg()],
         energy_budget_error=float(res.outputs["energy_budget_error"]),
@@ -101,22 +104,22 @@ def _report(rows, info, args, wall):
         f"Level `{args.level}`, {args.t_end} s of passive landing, the level's solver settings "
         "(`LEVEL_DEFAULTS`, `LEVEL_STEP_CONTROL`). `v_d = 2.5 v_s`. *run* is a second, compiled call. "
         "Differences are relative to the smallest `v_s` of the same case run with the first solver "
-        "listed (the reference).",
+        "listed and, among those, the smallest rtol (the reference).",
         "",
-        "| case | solver | v_s [m/s] | run [s] | steps | rejected | z_max [m] | a_max [g] | σ_max [MPa] | stop [s] | "
+        "| case | solver | rtol | v_s [m/s] | run [s] | steps | rejected | z_max [m] | a_max [g] | σ_max [MPa] | stop [s] | "
         "d z_max | d a_max | d σ_max | d stop | budget error | load (1 min) |",
-        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for case in CASES:
         rs = [r for r in rows if r["case"] == case]
         if not rs:
             continue
-        ref = min(rs, key=lambda r: (r["v_s"], r["solver"] != rs[0]["solver"]))
+        ref = min(rs, key=lambda r: (r["v_s"], r["solver"] != rs[0]["solver"], r.get("rtol", 1.0)))
         for r in rs:
             d = {k: (r[k] - ref[k]) / abs(ref[k]) for k in OUTPUTS}
             pct = {k: ("-" if d[k] != d[k] else f"{d[k]:+.2%}") for k in OUTPUTS}  # nan: not stopped
             lines.append(
-                f"| {case} | {r['solver']} | {r['v_s']:g} | {r['run_s']:.2f} | {r['steps']} | {r['rejected']} | {r['z_max_m']:.4f} | "
+                f"| {case} | {r['solver']} | {r.get('rtol', '-'):g} | {r['v_s']:g} | {r['run_s']:.2f} | {r['steps']} | {r['rejected']} | {r['z_max_m']:.4f} | "
                 f"{r['a_max_g']:.4f} | {r['sigma_max_mpa']:.2f} | {r['stop_time_s']:.4f} | {pct['z_max_m']} | "
                 f"{pct['a_max_g']} | {pct['sigma_max_mpa']} | {pct['stop_time_s']} | "
                 f"{r['energy_budget_error']:.1e} | {r['load'][0]} |"
@@ -131,6 +134,7 @@ def main():
     p.add_argument("--t-end", type=float, default=None, help="landing end time [s] (1.0; quick 0.2)")
     p.add_argument("--v-s", nargs="+", type=float, default=None, help="slip speeds [m/s] (0.05 0.1 0.2 0.5 1.0)")
     p.add_argument("--solvers", nargs="+", default=None, help="solvers (default: the level's; e.g. tsit5 bosh3)")
+    p.add_argument("--rtols", nargs="+", type=float, default=None, help="rtol = atol values (default: the level's)")
     p.add_argument("--tag", default="", help="suffix of the output files (bench_contact_slip_TAG.*)")
     p.add_argument("--cases", nargs="+", default=["design", "deviated"], choices=list(CASES))
     args, _ = p.parse_known_args()
@@ -146,9 +150,9 @@ def main():
     stem = f"_{args.tag}" if args.tag else ""
     rows, t0 = [], time.perf_counter()
     for case in args.cases:
-        for solver in args.solvers or [None]:
+        for solver, rtol in [(sv, rt) for sv in args.solvers or [None] for rt in args.rtols or [None]]:
             for v_s in speeds:
-                rows.append(_run(args.level, case, v_s, args.t_end, solver))
+                rows.append(_run(args.level, case, v_s, args.t_end, solver, rtol))
                 print(json.dumps(rows[-1]), flush=True)
                 (out_dir / f"bench_contact_slip{stem}.json").write_text(json.dumps(dict(machine=info, rows=rows), indent=1))
     report = _report(rows, info, args, time.perf_counter() - t0)

@@ -28,13 +28,19 @@ LEVEL_DEFAULTS = {
     # not accuracy, so tightening costs little. rigid at 1e-6: 2e-7 error for 1.2x the cost of 1e-4;
     # ale/full at 1e-5: 5e-5 / 1e-6 error, at the a_max rounding sensitivity (2e-5), 1e-6 costs
     # 1.18x more. Implicit Kvaerno3/5 are 100-1000x slower on these scenes.
-    # ale/full use Bosh3 (session 6): their steps are set by stability (the fine elements' axial
-    # modes, the contact's stick creep), where a 3-stage solver covers more time per evaluation
-    # than Tsit5's 6: 1 s full design case 9.97 -> 6.71 s, outputs equal to Tsit5's to 6e-5
-    # (experiments/results/bench_contact_slip.md, docs/arresting_design.md "Session 6").
+    # ale/full use Bosh3 at 1e-4 (session 6). Their steps are set by stability (the fine elements'
+    # axial modes, the contact's stick creep), where a 3-stage solver covers more time per
+    # evaluation than Tsit5's 6, except after the rocket stops, where they are set by accuracy.
+    # Against Tsit5 at 1e-7, every output (z_max, a_max, sigma_max, stop time) is within 2.4e-4 of
+    # the reference (the design case and the two-phase case of IV.A; the energy budget within 2e-5).
+    # That is 20-200x below the mesh's 4-5% and the friction regularisation's 1.25%. Full design
+    # case 20.4 -> 5.5 s, two-phase full 16.2 -> 6.4 s (experiments/results/bench_contact_slip_rtol.md,
+    # docs/arresting_design.md "Session 6"). Pass rtol/atol for tighter runs, and for stiffened
+    # variants: with 1000x stiffer, damped (beta 1e-2 s) cables, 1e-4 errs by 2.0% in sigma_max
+    # (1e-5: 0.2%; tests/arresting/test_passive.py, the full level's 1-DOF limit).
     "rigid": ("tsit5", 1e-6, 1e-6, 200_000),
-    "ale": ("bosh3", 1e-5, 1e-5, 400_000),
-    "full": ("bosh3", 1e-5, 1e-5, 400_000),
+    "ale": ("bosh3", 1e-4, 1e-4, 400_000),
+    "full": ("bosh3", 1e-4, 1e-4, 400_000),
 }
 
 LEVEL_STEP_CONTROL = {
