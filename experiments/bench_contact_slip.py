@@ -9,7 +9,7 @@ one level for a list of ``v_s`` (``v_d = 2.5 v_s`` throughout, the ratio of the 
 on three captures: the design case, a deviated, tilted one, and the passive phase of the two-phase
 deviated case of section IV.A (13 m off centre: the cables slide far over the hooks); it
 reports each output's relative difference to the smallest ``v_s`` (the reference, closest to
-Coulomb friction), the steps and the run time (second call, compiled).
+Coulomb friction), the steps and the run time (second call of ``run_landing``, compiled).
 
 Usage:
     python experiments/bench_contact_slip.py                 # ~15 min: experiments/results/bench_contact_slip.{json,md}
@@ -30,6 +30,7 @@ import time
 from pathlib import Path
 
 import jaxcable
+from jaxcable.arresting.landing import LEVEL_DEFAULTS
 from jaxcable.provenance import machine_info
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -45,51 +46,36 @@ CASES = {
 
 def _scene_kwargs(case):
     """Capture and air of a case (the two-phase case runs its tracking phase first)."""
-    import numpy as np
-
+    from jaxcable.arresting import two_phase
     from jaxcable.arresting.layout import CaptureState
 
     if CASES[case] is not None:
         return dict(capture=CaptureState(**CASES[case]))
-    from jaxcable.arresting import two_phase
-
     scene = two_phase.tracking_scene(seed=1)
     _, out = two_phase._tracking_jit(scene)
-    cap = out["captured_state"]
-    cap = CaptureState(**{f: float(getattr(cap, f)) for f in cap.__dataclass_fields__})
-    return dict(
-        capture=cap, layout=scene.layout, frame_centre_xy=np.asarray(out["frame_centre_at_capture_m"]),
-        **two_phase._air_kwargs(scene, out, True),
-    )  # fmt: skip
+    return two_phase._passive_kwargs(scene, out)
 
 
 def _run(level, case, v_s, t_end, solver=None, rtol=None):
-    import jax
+    """One landing through ``run_landing`` (the level's solver settings where ``solver``/``rtol`` are
+    None; rtol = atol), called twice: *first* compiles, *run* is the compiled call."""
+    from jaxcable.arresting.landing import run_landing
+    from jaxcable.arresting.passive import scene_contact_law
 
-    from jaxcable.arresting.contact import ContactLaw
-    from jaxcable.arresting.landing import LEVEL_DEFAULTS, LEVEL_STEP_CONTROL
-    from jaxcable.arresting.passive import passive_landing_scene
-    from jaxcable.simulate import simulate
-
-    default_solver, default_rtol, default_atol, max_steps = LEVEL_DEFAULTS[level]
-    solver = solver or default_solver
-    rtol, atol = (rtol, rtol) if rtol else (default_rtol, default_atol)
-    pcoeff, icoeff = LEVEL_STEP_CONTROL[level]
-    scene = passive_landing_scene(level, contact=ContactLaw(v_s=v_s, v_d=2.5 * v_s), t_end_s=t_end, **_scene_kwargs(case))
-    kw = dict(solver=solver, rtol=rtol, atol=atol, max_steps=max_steps, pcoeff=pcoeff, icoeff=icoeff)
+    contact = scene_contact_law(v_s)
+    kwargs = dict(solver=solver, rtol=rtol, t_end_s=t_end, contact=contact, **_scene_kwargs(case))
     t0 = time.perf_counter()
-    res = simulate(scene, t_end, **kw)
-    jax.block_until_ready(res.outputs)
+    run_landing(level, **kwargs)
     t1 = time.perf_counter()
-    res = simulate(scene, t_end, **kw)
-    jax.block_until_ready(res.outputs)
+    land = run_landing(level, **kwargs)
     t2 = time.perf_counter()
+    res = land.result
     return dict(
-        level=level, case=case, solver=solver, rtol=rtol, v_s=v_s, v_d=2.5 * v_s, first_s=t1 - t0, run_s=t2 - t1,
+        level=level, case=case, solver=solver or LEVEL_DEFAULTS[level][0], rtol=rtol or LEVEL_DEFAULTS[level][1],
+        v_s=v_s, v_d=float(contact.v_d), first_s=t1 - t0, run_s=t2 - t1,
         steps=int(res.num_steps), rejected=int(res.num_rejected), status=res.status_message,
         load=[round(x, 2) for x in os.getloadavg()],
-        energy_budget_error=float(res.outputs["energy_budget_error"]),
-        **{k: float(res.outputs[k]) for k in OUTPUTS},
+        **{k: land.outputs[k] for k in ("energy_budget_error",) + OUTPUTS},
     )  # fmt: skip
 
 

@@ -278,6 +278,14 @@ DEFAULT_CONTACT_SLIP_M_S = 0.5
 scenes unless a ``contact`` law is given (``v_d = 2.5 v_s``; reasons in :func:`passive_landing_scene`)."""
 
 
+def scene_contact_law(v_s_m_s: float = DEFAULT_CONTACT_SLIP_M_S):
+    """The scenes' hook-cable contact law (:class:`.contact.ContactLaw` defaults) with static slip
+    speed ``v_s`` [m/s] and dynamic slip speed ``v_d = 2.5 v_s``."""
+    from .contact import ContactLaw
+
+    return ContactLaw(v_s=v_s_m_s, v_d=2.5 * v_s_m_s)
+
+
 def passive_landing_scene(
     fidelity: str = "full",
     capture: CaptureState | None = None,
@@ -339,7 +347,6 @@ def passive_landing_scene(
     ``wind_time_offset_s`` [s]: air loads on the rocket and (ale/full) the arresting spans.
     """
     from ..body.landing_rocket import flexible_landing_rocket, rigid_landing_rocket
-    from .contact import ContactLaw
 
     check_choice("fidelity", fidelity, FIDELITY_LEVELS)
     if fidelity == "1dof":
@@ -375,8 +382,7 @@ def passive_landing_scene(
     if cable_model == "massless":
         cables = MasslessCables.build(layout, buffer, frame_centre, hooks0, w, damping_s=cable_damping_s)
     else:
-        if contact is None:
-            contact = ContactLaw(v_s=DEFAULT_CONTACT_SLIP_M_S, v_d=2.5 * DEFAULT_CONTACT_SLIP_M_S)
+        contact = scene_contact_law() if contact is None else contact
         cables = AleCables.build(
             layout,
             buffer,

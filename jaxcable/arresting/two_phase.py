@@ -393,6 +393,18 @@ def two_phase_outputs(
     return out
 
 
+def _passive_kwargs(scene, out1, passive_air=True):
+    """Keyword arguments of :func:`.passive.passive_landing_scene` (and ``run_landing``) for the passive
+    phase after phase 1's outputs ``out1``, on the host: the captured state as floats, the layout,
+    the frame's centre at capture and the air (:func:`_air_kwargs`)."""
+    capture = out1["captured_state"]
+    capture = CaptureState(**{f: float(getattr(capture, f)) for f in capture.__dataclass_fields__})
+    return dict(
+        capture=capture, layout=scene.layout, frame_centre_xy=np.asarray(out1["frame_centre_at_capture_m"]),
+        **_air_kwargs(scene, out1, passive_air),
+    )  # fmt: skip
+
+
 def _air_kwargs(scene, out1, passive_air):
     if not passive_air:
         return {}
@@ -473,12 +485,9 @@ def run_two_phase(
     check_choice("fidelity", fidelity, ("rigid", "ale", "full"))
     scene = tracking_scene(terminal, scenario=scenario, **scene_kwargs)
     track, out = _tracking_jit(scene)
-    capture = out["captured_state"]
-    capture = CaptureState(**{f: float(getattr(capture, f)) for f in capture.__dataclass_fields__})
     land = run_landing(
-        fidelity, capture, scene.layout, buffer, t_end_s=passive_t_end_s, criteria=criteria, progress=progress,
-        frame_centre_xy=np.asarray(out["frame_centre_at_capture_m"]), cable_damping_s=cable_damping_s,
-        **_air_kwargs(scene, out, passive_air),
+        fidelity, buffer=buffer, t_end_s=passive_t_end_s, criteria=criteria, progress=progress,
+        cable_damping_s=cable_damping_s, **_passive_kwargs(scene, out, passive_air),
     )  # fmt: skip
     res = _to_python(out)
     res.update({k: v for k, v in land.outputs.items() if k != "energy_budget_J"})
