@@ -233,6 +233,7 @@ __all__ = [
     "optimise",
     "optax_minimise",
     "paper_start",
+    "profile_names",
     "smooth_cvar",
 ]
 
@@ -242,7 +243,18 @@ DESIGN_VARIABLES = {
     "F_f": ("sliding friction force of one brake [N]", "passive"),
     "a_p": ("proportional gain a_p of the PD law, eq 4 [1/s]", "full"),
 }
-"""The design variables one may choose, with what they are and the phase whose scene they act in."""
+MAX_PROFILE_KNOTS = 16
+"""Most knots of the brake profile ``phi`` (variables ``b0 .. b15``; :mod:`jaxcable.arresting.buffer`)."""
+DESIGN_VARIABLES.update(
+    {
+        f"b{k}": (f"brake-profile factor phi at knot {k} of the counterweight rise, F_f(w) = F_f phi(w) [-]", "passive")
+        for k in range(MAX_PROFILE_KNOTS)
+    }
+)
+"""The design variables one may choose, with what they are and the phase whose scene they act in.
+``b0 .. b{K-1}`` (K >= 2, contiguous from ``b0``) are the K factors of the brake profile at equally
+spaced knots of the counterweight rise over ``[0, buffer.brake_profile_travel_m]`` (6 m by default);
+``profile_names(K)`` lists them and ``--vars m_w,profile:8`` chooses them on the command line."""
 
 DEFAULT_BOUNDS = {
     # m_w: lower bound by cost, not physics (steps ~ 1/m_w, module docstring); upper 3.6x the paper
@@ -251,6 +263,8 @@ DEFAULT_BOUNDS = {
     "F_f": (2.0e5, 5.0e5),
     # a_p: Table 4 uses 2, 5, 6; eq 11 asks a_p >= 20 / t_c (2 to 4 1/s for t_c = 10 to 5 s)
     "a_p": (0.5, 10.0),
+    # brake-profile factors: from a quarter to twice the brake's F_f along the rise
+    **{f"b{k}": (0.25, 2.0) for k in range(MAX_PROFILE_KNOTS)},
 }
 """Default bounds ``(lower, upper)`` per variable, in the variable's unit."""
 
@@ -270,6 +284,42 @@ PHASES = ("passive", "full")
 # the five non-state uncertain parameters of Table 2 that a phase="full" case needs besides its
 # terminal-guidance state (wind, gust, motor delay, measurement noise)
 CONDITIONS = ("wind_angle_deg", "wind_speed_m_s", "gust_intensity", "motor_delay_s", "noise_rms_m")
+
+
+def profile_names(knots: int) -> tuple:
+    """The design variables ``("b0", ..., "b{knots-1}")`` of a brake profile with ``knots`` factors."""
+    _check_count("knots", knots, 2, f" (brake-profile knots, at most {MAX_PROFILE_KNOTS})")
+    if knots > MAX_PROFILE_KNOTS:
+        raise ValueError(f"knots must be at most {MAX_PROFILE_KNOTS} (brake-profile knots), got {knots}")
+    return tuple(f"b{k}" for k in range(knots))
+
+
+def _profile_indices(names) -> list:
+    """Positions in ``names`` of ``b0, b1, ...`` in knot order; an error unless they are ``b0 ..
+    b{K-1}`` with K >= 2 (or none)."""
+    knots = sorted(int(n[1:]) for n in names if n in DESIGN_VARIABLES and n.startswith("b"))
+    if not knots:
+        return []
+    if knots != list(range(len(knots))) or len(knots) < 2:
+        raise ValueError(
+            f"brake-profile variables must be b0 .. b(K-1) with K >= 2 (no gaps), got {[f'b{k}' for k in knots]}"
+        )
+    return [list(names).index(f"b{k}") for k in knots]
+
+
+def _expand_profile_tokens(names):
+    """``"profile:K"`` in a list of names -> ``b0 .. b{K-1}`` (the command line's shorthand)."""
+    out = []
+    for n in names:
+        if n.startswith("profile:"):
+            try:
+                k = int(n.split(":", 1)[1])
+            except ValueError:
+                raise ValueError(f"design variable {n!r}: write profile:K with K the number of knots, e.g. profile:8") from None
+            out.extend(profile_names(k))
+        else:
+            out.append(n)
+    return out
 
 
 def _float_array(value):
@@ -347,7 +397,7 @@ class DesignSpace(eqx.Module):
         default_bounds = DEFAULT_BOUNDS if default_bounds is None else default_bounds
         if isinstance(names, str):
             names = [n.strip() for n in names.split(",") if n.strip()]
-        names = tuple(names)
+        names = tuple(_expand_profile_tokens(names) if "b0" in variables else names)
         bounds = {} if bounds is None else dict(bounds)
         for name in bounds:
             check_choice("design variable in bounds", name, variables)
@@ -599,6 +649,7 @@ class DesignProblem(eqx.Module):
         check_positive("tracking_tolerance_m", self.tracking_tolerance_m)
         check_positive("capture_reference_m", self.capture_reference_m)
         check_positive("margin_width_m", self.margin_width_m)
+        _profile_indices(self.space.names)
         for name in self.space.names:
             check_choice("design variable", name, DESIGN_VARIABLES)
             needs = DESIGN_VARIABLES[name][1]
@@ -728,13 +779,14 @@ def design_problem(
 def paper_start(problem: DesignProblem) -> jax.Array:
     """The paper's section II.B design as a point of ``problem.space``: ``m_w``, ``F_f`` of
     :func:`jaxcable.arresting.one_dof.paper_design` (m_t_bar = 2, F_t_bar of eq 19; 1388.9 kg,
-    3.0886e5 N), and ``a_p`` of Table 4 for the problem's scenario (``problem.gain_per_s``); a
-    variable other than those takes the middle of its bounds."""
+    3.0886e5 N), ``a_p`` of Table 4 for the problem's scenario (``problem.gain_per_s``) and brake-profile
+    factors of 1 (the constant brake); a variable other than those takes the middle of its bounds."""
     from .arresting.one_dof import paper_design
 
     p = paper_design()
     # a_p: Table 4's gain of the problem's scenario (2, 5, 6 1/s for I, II, III)
     known = {"m_w": float(p.m_w), "F_f": float(p.F_f), "a_p": float(problem.gain_per_s)}
+    known.update({f"b{k}": 1.0 for k in range(MAX_PROFILE_KNOTS)})  # the paper's constant brake
     sp = problem.space
     mid = 0.5 * (np.asarray(sp.lower) + np.asarray(sp.upper))
     return sp.from_dict({n: known.get(n, float(mid[i])) for i, n in enumerate(sp.names)})
@@ -757,6 +809,10 @@ def _buffer(problem: DesignProblem, x):
     for i, name in enumerate(problem.space.names):
         if name in _PASSIVE_SETTERS:
             buffer = _PASSIVE_SETTERS[name](buffer, x[i])
+    knots = _profile_indices(problem.space.names)
+    if knots:
+        profile = x[jnp.asarray(knots)]
+        buffer = eqx.tree_at(lambda b: b.brake_profile, buffer, profile, is_leaf=lambda v: v is None)
     return buffer
 
 

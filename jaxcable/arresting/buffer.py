@@ -18,6 +18,16 @@ is a named parameter; its effect on z_max, a_max, sigma_max and on the step coun
 ``experiments/bench_land.py``. Smaller widths are closer to Coulomb and stiffer: the brake's
 linearised damping ``F_f / v_width`` over the counterweight mass sets a time constant
 ``m_w v_width / F_f`` (1.5e-4 s at the defaults), which an explicit solver must resolve.
+
+Brake profile (an extension; the paper's brake is constant). ``brake_profile`` (K,) scales the
+sliding force along the counterweight's rise ``w``: ``F_f(w) = F_f * phi(w)``, ``phi`` the linear
+interpolation of the K factors at equally spaced knots ``w_k = k * brake_profile_travel_m / (K-1)``,
+held at the last factor beyond the last knot (and at the first below 0). It plays the part of the
+metering cam of an aircraft arresting-gear engine, which shapes the braking force along the payout.
+The force still opposes the motion and is a function of position times ``tanh(w'/width)``, so the
+brake only dissipates (``brake_power >= 0``) and the energy budget is unchanged in form. ``None``
+(default) is the constant brake of the paper, at no extra cost. The design module
+(:mod:`jaxcable.design`, variables ``b0 .. b{K-1}``) optimises the factors.
 """
 
 from __future__ import annotations
@@ -26,7 +36,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from .._validation import check_positive
+from .._validation import check_finite, check_positive
 
 
 class BufferDevice(eqx.Module):
@@ -40,16 +50,42 @@ class BufferDevice(eqx.Module):
     """``alpha``: counterweight travel per unit travel of the moving pulley block [-] (Table 1: 3)."""
     brake_velocity_width_m_s: jax.Array = eqx.field(converter=jnp.asarray, default=0.05)
     """Smoothing width of the stick-slip law ``F_f tanh(w'/width)`` [m/s]."""
+    brake_profile: jax.Array | None = eqx.field(converter=lambda v: None if v is None else jnp.asarray(v), default=None)
+    """Factors ``phi_k`` [-] (K >= 2,) of the sliding force at K equally spaced knots of the
+    counterweight rise over ``[0, brake_profile_travel_m]`` (module docstring); ``None``: constant."""
+    brake_profile_travel_m: jax.Array = eqx.field(converter=jnp.asarray, default=6.0)
+    """Counterweight rise [m] of the profile's last knot (default 6 m: the rise at a 10 m drop of the
+    central landing is 5.8 m in the 1-DOF model and 5.7 m at the rigid level, Table 1 layout)."""
 
     def __check_init__(self):
         check_positive("counterweight_mass_kg", self.counterweight_mass_kg)
         check_positive("brake_force_N", self.brake_force_N, allow_zero=True)
         check_positive("transfer_rate", self.transfer_rate)
         check_positive("brake_velocity_width_m_s", self.brake_velocity_width_m_s)
+        check_positive("brake_profile_travel_m", self.brake_profile_travel_m)
+        if self.brake_profile is not None:
+            if self.brake_profile.ndim < 1 or self.brake_profile.shape[-1] < 2:
+                raise ValueError(
+                    f"brake_profile must hold at least 2 factors (last axis), got shape {self.brake_profile.shape}"
+                )
+            check_finite("brake_profile", self.brake_profile)
+            check_positive("brake_profile", self.brake_profile, allow_zero=True)
 
-    def brake_force(self, w_dot):
-        """Brake force opposing the counterweight's rise rate ``w_dot`` [m/s] -> [N] (>0 resists rise)."""
-        return self.brake_force_N * jnp.tanh(w_dot / self.brake_velocity_width_m_s)
+    def profile_factor(self, w):
+        """The profile's factor ``phi(w)`` [-] at counterweight rise ``w`` [m] (1 without a profile)."""
+        if self.brake_profile is None:
+            return jnp.ones_like(jnp.asarray(w, dtype=float))
+        k = self.brake_profile.shape[-1]
+        knots = jnp.linspace(0.0, 1.0, k) * self.brake_profile_travel_m
+        return jnp.interp(w, knots, self.brake_profile)
+
+    def brake_force(self, w_dot, w=0.0):
+        """Brake force opposing the counterweight's rise rate ``w_dot`` [m/s] at rise ``w`` [m] -> [N]
+        (>0 resists rise); ``w`` matters only with a ``brake_profile``."""
+        force = self.brake_force_N * jnp.tanh(w_dot / self.brake_velocity_width_m_s)
+        if self.brake_profile is None:
+            return force
+        return force * self.profile_factor(w)
 
     def kinetic_energy(self, u_dot):
         """Counterweight kinetic energy [J] from the block rate ``u_dot`` [m/s]."""
@@ -60,11 +96,13 @@ class BufferDevice(eqx.Module):
         """Counterweight potential energy ``m_w g w`` [J] (``g`` [m/s^2], > 0)."""
         return self.counterweight_mass_kg * g * self.transfer_rate * u
 
-    def generalized_force(self, u_dot):
-        """Brake force on the block coordinate ``u`` [N] (``-alpha F_brake(alpha u_dot)``)."""
-        return -self.transfer_rate * self.brake_force(self.transfer_rate * u_dot)
+    def generalized_force(self, u_dot, u=0.0):
+        """Brake force on the block coordinate ``u`` [N] (``-alpha F_brake(alpha u_dot, alpha u)``);
+        ``u`` [m], the block's travel, matters only with a ``brake_profile``."""
+        a = self.transfer_rate
+        return -a * self.brake_force(a * u_dot, a * u)
 
-    def brake_power(self, u_dot):
-        """Power dissipated by the brake [W] (>= 0)."""
-        w_dot = self.transfer_rate * u_dot
-        return self.brake_force(w_dot) * w_dot
+    def brake_power(self, u_dot, u=0.0):
+        """Power dissipated by the brake [W] (>= 0) at block rate ``u_dot`` [m/s] and travel ``u`` [m]."""
+        a = self.transfer_rate
+        return self.brake_force(a * u_dot, a * u) * a * u_dot

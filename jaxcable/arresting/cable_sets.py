@@ -143,11 +143,11 @@ class MasslessCables(eqx.Module):
         m_eff = b.counterweight_mass_kg * b.transfer_rate**2
         udd = (
             2.0 * tension
-            + b.generalized_force(state.udot)
+            + b.generalized_force(state.udot, state.u)
             - b.transfer_rate * b.counterweight_mass_kg * self.gravity_m_s2
         ) / m_eff
         damping_power = jnp.sum(damping * strain_rate * self.unstretched_m)
-        dstate = MasslessState(u=state.udot, udot=udd, dissipated=jnp.sum(b.brake_power(state.udot)) + damping_power)
+        dstate = MasslessState(u=state.udot, udot=udd, dissipated=jnp.sum(b.brake_power(state.udot, state.u)) + damping_power)
         normal = jnp.zeros(4).at[np.array(HOOK_OF_CABLE)].set(jnp.linalg.norm(pull, axis=1))
         aux = dict(
             tension_max_N=jnp.max(tension),

@@ -565,7 +565,7 @@ class CableSubsystem(eqx.Module):
         Q_r, Q_s, Q_u = self._generalised(kin, F_r, F_s)
         b = self.buffer
         g = -self.gravity[2]
-        Q_u = Q_u - b.counterweight_mass_kg * g * b.transfer_rate + b.generalized_force(qdot.u)
+        Q_u = Q_u - b.counterweight_mass_kg * g * b.transfer_rate + b.generalized_force(qdot.u, q.u)
         if external is not None:
             Q_r, Q_s, Q_u = Q_r + external.r, Q_s + external.s, Q_u + external.u
         # slow Jacobians of the material velocity at each element end: (n_el, 2 ends, 3, n_slow)
@@ -684,7 +684,7 @@ class CableSubsystem(eqx.Module):
         dVdq = jax.grad(lambda fq: self.potential_energy(unravel(fq)))(flat_q)
         dDdqd = jax.grad(lambda fqd: self.dissipation_function(unravel(flat_q), unravel(fqd)))(flat_qd)
         brake = ravel_pytree(
-            CableCoords(r=jnp.zeros_like(q.r), s=jnp.zeros_like(q.s), u=self.buffer.generalized_force(qdot.u))
+            CableCoords(r=jnp.zeros_like(q.r), s=jnp.zeros_like(q.s), u=self.buffer.generalized_force(qdot.u, q.u))
         )[0]
         rhs = -dp + dTdq - dVdq - dDdqd + brake
         if external is not None:
@@ -696,7 +696,7 @@ class CableSubsystem(eqx.Module):
         :meth:`kinematics` (``2 D = beta EA sum L eps_dot^2``)."""
         kin = self.kinematics(q, qdot) if kin is None else kin
         damping = self.cable.damping_s * self.cable.EA_N * jnp.sum(kin.length * kin.strain_rate**2)
-        return damping + self.buffer.brake_power(qdot.u)
+        return damping + self.buffer.brake_power(qdot.u, q.u)
 
     def derivative(self, state: CableState, external: CableCoords | None = None) -> CableState:
         kin = self.kinematics(state.q, state.qdot)
