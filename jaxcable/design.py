@@ -24,10 +24,14 @@ Pieces
 * :func:`objective` (pure) and its jitted entry points, one ``filter_jit`` each:
   :func:`objective_value` (forward), :func:`objective_and_grad` (value and gradient) and
   :func:`batch_criteria` (per-case smooth and hard criteria at a physical design).
-* :func:`optimise` (optax, adam by default) and :func:`nelder_mead` (scipy, derivative-free
-  baseline on the same reparametrisation and objective); both return a :class:`DesignHistory`.
+* :func:`optimise` (optax, adam by default), :func:`lbfgs` (optax's L-BFGS direction with a
+  backtracking line search on the host) and :func:`nelder_mead` (scipy, derivative-free baseline on
+  the same reparametrisation and objective); all return a :class:`DesignHistory`.
+* The brake profile: ``b0 .. b{K-1}`` (``--vars m_w,profile:8``) are the K factors of
+  ``F_f(w) = F_f phi(w)`` along the counterweight's rise (:mod:`jaxcable.arresting.buffer`), a
+  design with many variables where gradients pay (``experiments/bench_design_profile.py``).
 * :func:`cvar` (exact, sort-based) and :func:`smooth_cvar` (sort-free, smooth).
-* :func:`optax_minimise` and :func:`nelder_mead_minimise`: the two loops for any objective on a
+* :func:`optax_minimise`, :func:`lbfgs_minimise` and :func:`nelder_mead_minimise`: the loops for any objective on a
   :class:`DesignSpace` (the line-throwing design of :mod:`jaxcable.line_design` uses them too).
 * :func:`design_main`: the ``jaxcable design`` command line (``--scene throw``: the line-throwing
   launch design).
@@ -224,6 +228,8 @@ __all__ = [
     "design_main",
     "default_phase",
     "design_problem",
+    "lbfgs",
+    "lbfgs_minimise",
     "nelder_mead",
     "nelder_mead_minimise",
     "objective",
@@ -1170,6 +1176,85 @@ def optax_minimise(
     )
 
 
+def lbfgs_minimise(
+    space: DesignSpace,
+    value_and_grad,
+    x0,
+    max_evaluations: int = 50,
+    memory_size: int = 10,
+    callback=None,
+    record=None,
+    criteria_names: tuple = CRITERIA,
+    sufficient_decrease: float = 1e-4,
+) -> DesignHistory:
+    """L-BFGS on the unconstrained variables of ``space``: optax's ``scale_by_lbfgs`` direction with
+    a backtracking (Armijo) line search on the host, for any objective.
+
+    Suited to the design objectives, which are smooth and deterministic (a fixed batch): where adam
+    takes fixed-size, momentum-driven steps and overshoots (``experiments/results/
+    bench_design_profile.md``), L-BFGS builds curvature from the gradients and steps along it. The
+    line search runs on the host so that each trial is one call of the jitted ``value_and_grad``
+    (an accepted trial's gradient is the next iteration's): no second compilation of the objective
+    inside optax's traced line search. A direction that is not a descent direction (curvature pairs
+    from a non-convex stretch) resets the memory to a gradient step. Every evaluation, accepted or
+    not, is a row of the history (``max_evaluations`` rows at most), so evaluation counts compare
+    with Nelder-Mead's; ``callback(i, J, x, aux)`` after each accepted point (``i`` = evaluation)."""
+    import optax
+
+    _check_count("max_evaluations", max_evaluations, 1)
+    _check_count("memory_size", memory_size, 1)
+    opt = optax.scale_by_lbfgs(memory_size=memory_size)
+    u = space.to_unconstrained(x0)
+    state = opt.init(u)
+    rows = dict(x=[], objective=[], grad_norm=[], worst_hard=[], success_rate=[], wall_s=[])
+    t0 = time.perf_counter()
+
+    def evaluate(u_):
+        j, g, aux = value_and_grad(u_)
+        j, g_np = float(j), np.asarray(g)
+        worst, success = record(aux) if record is not None else ([np.nan] * len(criteria_names), np.nan)
+        rows["x"].append(np.asarray(aux["x"]))
+        rows["objective"].append(j)
+        rows["grad_norm"].append(float(np.linalg.norm(g_np)))
+        rows["worst_hard"].append(worst)
+        rows["success_rate"].append(success)
+        rows["wall_s"].append(time.perf_counter() - t0)
+        return j, g, aux
+
+    j, g, aux = evaluate(u)
+    if not np.isfinite(j) or not np.all(np.isfinite(np.asarray(g))):
+        raise FloatingPointError(f"non-finite objective or gradient at the start: J = {j}, dJ/du = {np.asarray(g)}")
+    if callback is not None:
+        callback(0, j, np.asarray(aux["x"]), aux)
+    while len(rows["objective"]) < max_evaluations:
+        d, new_state = opt.update(g, state, u)
+        slope = float(jnp.vdot(g, d))
+        if not slope > 0.0:  # not a descent direction: restart the memory from here
+            state = opt.init(u)
+            d, new_state = opt.update(g, state, u)
+            slope = float(jnp.vdot(g, d))
+        step, accepted = 1.0, False
+        while len(rows["objective"]) < max_evaluations:
+            u_try = u - step * d
+            j_try, g_try, aux_try = evaluate(u_try)
+            finite = np.isfinite(j_try) and np.all(np.isfinite(np.asarray(g_try)))
+            if finite and j_try <= j - sufficient_decrease * step * slope:
+                accepted = True
+                break
+            step *= 0.5
+        if not accepted:
+            break
+        u, j, g, aux, state = u_try, j_try, g_try, aux_try, new_state
+        if callback is not None:
+            callback(len(rows["objective"]) - 1, j, np.asarray(aux["x"]), aux)
+    return DesignHistory(
+        method="lbfgs",
+        names=space.names,
+        criteria_names=tuple(criteria_names),
+        **{k: np.asarray(v, dtype=float) for k, v in rows.items()},
+    )
+
+
 def nelder_mead_minimise(
     space: DesignSpace,
     value,
@@ -1253,6 +1338,15 @@ def optimise(
     )  # fmt: skip
 
 
+def lbfgs(problem: DesignProblem, x0, max_evaluations: int = 50, memory_size: int = 10, callback=None) -> DesignHistory:
+    """L-BFGS with a backtracking line search (:func:`lbfgs_minimise`) on :func:`objective_and_grad`,
+    from design ``x0`` (k,): each evaluation is a value and a gradient."""
+    return lbfgs_minimise(
+        problem.space, lambda u: objective_and_grad(problem, u), x0, max_evaluations=max_evaluations,
+        memory_size=memory_size, callback=callback, record=_record(problem), criteria_names=problem.criteria_names,
+    )  # fmt: skip
+
+
 def nelder_mead(
     problem: DesignProblem,
     x0,
@@ -1325,13 +1419,14 @@ def design_main(argv: list[str] | None = None) -> int:
     object instead. Returns 0, or 2 on bad input."""
     parser = argparse.ArgumentParser(prog="jaxcable design", description=design_main.__doc__.splitlines()[0])
     parser.add_argument("--scene", choices=["arresting", "throw"], default="arresting", help="arresting (buffer design over a QMC batch, default) or throw (line-throwing launch: range under a landing-speed and rope-pull limit)")
-    parser.add_argument("--vars", default=None, help="design variables, comma-separated: m_w, F_f, a_p (default m_w,F_f); with --scene throw: angle_deg, rope_diameter_m, rope_linear_density_kg_per_m (default angle_deg,rope_diameter_m)")
+    parser.add_argument("--vars", default=None, help="design variables, comma-separated: m_w, F_f, a_p, b0 .. b15 or profile:K (the K factors of a brake profile F_f(w) = F_f phi(w)) (default m_w,F_f); with --scene throw: angle_deg, rope_diameter_m, rope_linear_density_kg_per_m (default angle_deg,rope_diameter_m)")
     parser.add_argument("--n", type=int, default=64, help="captures in the QMC batch (default 64)")
     parser.add_argument("--steps", type=int, default=50, help="optimiser steps (default 50)")
     parser.add_argument("--scenario", choices=["I", "II", "III"], default="I", help="Table 4 scenario (default I)")
     parser.add_argument("--fidelity", choices=["rigid", "ale", "full"], default="rigid", help="model level (default rigid; ale/full are slow)")
     parser.add_argument("--phase", choices=list(PHASES), default=None, help="passive (Table 8 captures, passive scene) or full (Table 3 terminal-guidance states, tracking + capture + passive phase, level rigid); default: full when a_p is a variable, else passive")
     parser.add_argument("--seed", type=int, default=0, help="seed of the scrambled Halton batch (default 0)")
+    parser.add_argument("--optimizer", choices=["adam", "lbfgs"], default="adam", help="adam (optax, --steps steps at --lr) or lbfgs (optax's L-BFGS direction with a backtracking line search; --steps + 1 evaluations in all, trials included); default adam")
     parser.add_argument("--lr", type=float, default=0.1, help="adam learning rate in the unconstrained variables (default 0.1)")
     parser.add_argument("--t-end", type=float, default=1.2, help="time simulated after capture [s] (default 1.2)")
     parser.add_argument(
@@ -1402,7 +1497,10 @@ def design_main(argv: list[str] | None = None) -> int:
             print(f"  step {i:3d}  J = {j:.5f}  " + ", ".join(f"{k} = {v:.6g}" for k, v in problem.space.as_dict(x).items()), flush=True)
 
     t0 = time.perf_counter()
-    hist = optimise(problem, x0, steps=args.steps, learning_rate=args.lr, callback=progress)
+    if args.optimizer == "lbfgs":
+        hist = lbfgs(problem, x0, max_evaluations=args.steps + 1, callback=progress)
+    else:
+        hist = optimise(problem, x0, steps=args.steps, learning_rate=args.lr, callback=progress)
     wall = time.perf_counter() - t0
     before = _evaluation_report(problem, *kept["start"])
     best = kept["best"]
@@ -1415,6 +1513,7 @@ def design_main(argv: list[str] | None = None) -> int:
         fidelity=args.fidelity,
         seed=args.seed,
         steps=args.steps,
+        optimizer=args.optimizer,
         t_end_s=args.t_end,
         rtol=problem.rtol,
         gradient=args.gradient,
@@ -1432,7 +1531,8 @@ def design_main(argv: list[str] | None = None) -> int:
         print(json.dumps(out))
     else:
         _print_report("before (start design)", before)
-        _print_report(f"after (best of {args.steps} adam steps: step {best['step']}, the lowest objective among the highest success rate)", after)
+        what = f"{args.steps} adam steps" if args.optimizer == "adam" else f"{len(hist.objective)} L-BFGS evaluations"
+        _print_report(f"after (best of {what}: step {best['step']}, the lowest objective among the highest success rate)", after)
         print(f"  wall time {wall:.1f} s (includes compiling)")
     return 0
 

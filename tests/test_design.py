@@ -400,3 +400,44 @@ def test_brake_profile_variables_are_checked():
         DesignSpace.from_names("profile:x")
     with pytest.raises(ValueError, match="at most 16"):
         DesignSpace.from_names("profile:17")
+
+
+def test_lbfgs_minimise_converges_on_an_ill_conditioned_quadratic():
+    """L-BFGS (optax direction, host line search) on a quadratic in the physical variables with a
+    condition number ~1e3 in u: it reaches the known minimiser in far fewer evaluations than adam
+    needs steps, every evaluation is a history row, and the objective never increases between
+    accepted points (Armijo)."""
+    from jaxcable.design import lbfgs_minimise, optax_minimise
+
+    sp = DesignSpace.from_names("m_w,F_f")
+    x_star = jnp.array([1000.0, 3.5e5])
+    u_star = sp.to_unconstrained(x_star)
+    scale = jnp.array([1.0, 1e3])
+
+    @jax.jit
+    def vg(u):
+        j, g = jax.value_and_grad(lambda v: jnp.sum(scale * (v - u_star) ** 2))(u)
+        return j, g, dict(x=sp.to_physical(u))
+
+    x0 = jnp.array([2000.0, 2.5e5])
+    accepted = []
+    h = lbfgs_minimise(sp, vg, x0, max_evaluations=40, callback=lambda i, j, x, aux: accepted.append(j))
+    assert len(h.objective) <= 40
+    np.testing.assert_allclose(h.x[h.best], np.asarray(x_star), rtol=1e-6)
+    assert np.all(np.diff(accepted) <= 0.0)
+    adam = optax_minimise(sp, vg, x0, steps=40, learning_rate=0.1)
+    assert h.objective.min() < 1e-6 * adam.objective.min()
+    with pytest.raises(ValueError, match="max_evaluations"):
+        lbfgs_minimise(sp, vg, x0, max_evaluations=0)
+
+
+def test_cli_lbfgs_improves_the_objective(problem, at_paper, capsys):
+    """``jaxcable design --optimizer lbfgs``: same problem as the fixture (compiled once), three
+    evaluations in all; the reported best objective is below the start's."""
+    rc = design_main(CLI_ARGS + ["--steps", "2", "--optimizer", "lbfgs", "--json"])
+    assert rc == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["optimizer"] == "lbfgs"
+    assert len(out["history"]["objective"]) == 3
+    assert out["before"]["objective"] == pytest.approx(at_paper[2], rel=1e-12)
+    assert min(out["history"]["objective"]) < out["before"]["objective"]
