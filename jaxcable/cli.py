@@ -68,6 +68,25 @@ _DESIGN = dict(x=0.0, y=0.0, vx=0.0, vy=0.0, vz=-20.0, theta_x=0.0, theta_y=0.0,
                omega_x=0.0, omega_y=0.0, omega_z=0.0)  # fmt: skip
 
 
+def _buffer_from_args(args):
+    """The buffer devices of ``jaxcable land``: m_w, F_f and the optional brake profile (ValueError
+    naming the flag on bad input)."""
+    from .arresting.buffer import BufferDevice
+
+    profile = None
+    if args.brake_profile:
+        try:
+            profile = [float(v) for v in args.brake_profile.split(",") if v.strip()]
+        except ValueError:
+            raise ValueError(f"--brake-profile must be comma-separated numbers, got {args.brake_profile!r}") from None
+        if args.fidelity == "1dof":
+            raise ValueError("--brake-profile needs --fidelity rigid, ale or full (the 1-DOF model has a constant brake)")
+    return BufferDevice(
+        counterweight_mass_kg=args.counterweight_mass, brake_force_N=args.brake_force, brake_profile=profile,
+        brake_profile_travel_m=args.brake_profile_travel,
+    )  # fmt: skip
+
+
 def _land(args) -> int:
     defaults = _DEVIATED if args.phase == "full" else _DESIGN
     for k, v in defaults.items():
@@ -75,7 +94,6 @@ def _land(args) -> int:
             setattr(args, k, v)
     if args.phase == "full":
         return _land_two_phase(args)
-    from .arresting.buffer import BufferDevice
     from .arresting.landing import plot_landing, report_landing, run_landing
     from .arresting.layout import CaptureState
 
@@ -93,7 +111,7 @@ def _land(args) -> int:
             omega_y_deg_s=args.omega_y,
             omega_z_deg_s=args.omega_z,
         )
-        buffer = BufferDevice(counterweight_mass_kg=args.counterweight_mass, brake_force_N=args.brake_force)
+        buffer = _buffer_from_args(args)
         run = run_landing(
             args.fidelity,
             capture,
@@ -135,7 +153,6 @@ def _land(args) -> int:
 
 
 def _land_two_phase(args) -> int:
-    from .arresting.buffer import BufferDevice
     from .arresting.layout import CaptureState
     from .arresting.two_phase import plot_two_phase, report_two_phase, run_two_phase
 
@@ -151,7 +168,7 @@ def _land_two_phase(args) -> int:
             theta_x_deg=args.theta_x, theta_y_deg=args.theta_y, theta_z_deg=args.theta_z,
             omega_x_deg_s=args.omega_x, omega_y_deg_s=args.omega_y, omega_z_deg_s=args.omega_z,
         )  # fmt: skip
-        buffer = BufferDevice(counterweight_mass_kg=args.counterweight_mass, brake_force_N=args.brake_force)
+        buffer = _buffer_from_args(args)
         run = run_two_phase(
             terminal,
             scenario=args.scenario,
@@ -290,6 +307,8 @@ def build_parser() -> argparse.ArgumentParser:
     la.add_argument("--seed", type=int, default=0, help="seed of the measurement noise and the gust (--phase full; default 0)")
     la.add_argument("--counterweight-mass", type=float, default=920.0, help="m_w, one counterweight [kg] (Table 1: 920)")
     la.add_argument("--brake-force", type=float, default=3.13e5, help="F_f, one brake [N] (Table 1: 3.13e5)")
+    la.add_argument("--brake-profile", default=None, help="factors phi_0,...,phi_K-1 of the brake force along the counterweight rise, F_f(w) = F_f phi(w), at K equally spaced knots over [0, --brake-profile-travel] (e.g. a design of `jaxcable design --vars m_w,profile:8`); default: constant brake")
+    la.add_argument("--brake-profile-travel", type=float, default=6.0, help="counterweight rise of the profile's last knot [m] (default 6)")
     la.add_argument("--cable-damping", type=float, default=DEFAULT_CABLE_DAMPING_S, help=f"cables' stiffness-proportional damping beta [s] (levels rigid, ale, full; default {DEFAULT_CABLE_DAMPING_S:g}: the paper gives none, a_max depends on it; ale/full: a larger beta shortens the explicit step)")
     la.add_argument("--span-elements", type=int, default=16, help="ALE elements per arresting span (levels ale, full; default 16)")
     la.add_argument("--fine-elements", type=int, default=8, help="of those, equal fine elements over +-3 m around the hook (levels ale, full; default 8 = 0.75 m; 4 = 1.5 m halves the run time and moves sigma_max by 1-6%%: docs/arresting_design.md)")

@@ -93,3 +93,24 @@ def test_all_ones_profile_is_the_constant_brake():
     ones = run_landing("rigid", t_end_s=0.6, buffer=BufferDevice(brake_profile=[1.0, 1.0, 1.0, 1.0])).outputs
     for key in ("z_max_m", "a_max_g", "sigma_max_mpa"):
         assert ones[key] == pytest.approx(base[key], rel=1e-9), key
+
+
+def test_cli_land_with_a_brake_profile(capsys):
+    """``jaxcable land --brake-profile``: a falling profile stops the design case sooner than the
+    constant brake (as in the work-energy test above); bad profiles are refused naming the flag."""
+    import json
+
+    from jaxcable.cli import main
+
+    args = ["land", "--fidelity", "rigid", "--t-end", "1.0", "--json"]
+    assert main(args) == 0
+    const = json.loads(capsys.readouterr().out)
+    assert main(args + ["--brake-profile", "1.6,1.0,0.6"]) == 0
+    falling = json.loads(capsys.readouterr().out)
+    assert falling["z_max_m"] < const["z_max_m"] - 0.3
+    assert main(args + ["--brake-profile", "1.0,x"]) == 2
+    assert "--brake-profile must be comma-separated numbers" in capsys.readouterr().err
+    assert main(["land", "--fidelity", "1dof", "--brake-profile", "1,1"]) == 2
+    assert "needs --fidelity rigid" in capsys.readouterr().err
+    assert main(args + ["--brake-profile", "1.0,-1.0"]) == 2
+    assert "brake_profile must be non-negative" in capsys.readouterr().err
