@@ -57,7 +57,7 @@ import numpy as np
 from ._validation import check_choice, check_positive
 from .arresting.buffer import BufferDevice
 from .arresting.layout import ArrestingLayout, CaptureState
-from .arresting.passive import DEFAULT_CABLE_DAMPING_S, G_CRITERIA, LandingCriteria
+from .arresting.passive import DEFAULT_CABLE_DAMPING_S, G_CRITERIA, SAVE_SPACING_S, LandingCriteria
 from .arresting.uncertainty import (
     CAPTURE_VZ_M_S,
     PHASES,
@@ -101,9 +101,6 @@ CRITERIA = (
 ALLOWED_NONFINITE = {"stop_time_s": "stopped"}
 """Outputs that may be non-finite without marking the case failed, with the flag that explains it
 (a case that did not stop within ``t_end_s`` has no stop time)."""
-
-SAVE_SPACING_S = 1e-3
-"""Default spacing of the saved samples of a passive case [s] (see :func:`passive_case_fn`)."""
 
 _OK_STATUS = tuple(int(r._value) for r in (diffrax.RESULTS.successful, diffrax.RESULTS.event_occurred))
 _AXIS = "cases"
@@ -352,10 +349,11 @@ def passive_case_fn(
       over [0, 1.6 s]; z_max over [0, 2 s] is up to 1.8 % below z_max over [0, 4 s] (19 of 100
       cases differ by more than 0.1 %, the success count is the same). The criteria are maxima over
       ``[0, t_end_s]``; a case not stopped by then is reported with ``stopped=False``, not failed.
-    * ``n_save`` = one sample per ``SAVE_SPACING_S`` = 1 ms (2001 at 2 s): the maxima are taken
-      over the saved samples; against 0.25 ms sampling, 5 ms (401 samples, the scene's default)
-      misses a_max by up to 0.13 %, 2.5 ms by 0.03 %, 1 ms by 4e-5 (40 cases), at no measurable
-      extra run time.
+    * ``n_save`` = one sample per ``SAVE_SPACING_S`` = 1 ms (2001 at 2 s), the rule of the passive
+      scene's own default grid (:data:`jaxcable.arresting.passive.SAVE_SPACING_S`, measurements
+      there): the maxima are taken over the saved samples; against 0.25 ms sampling, 5 ms (401
+      samples over 2 s, the scene's old default) misses a_max by up to 0.13 %,
+      2.5 ms by 0.03 %, 1 ms by 4e-5 (40 rigid cases), at no measurable extra run time.
     """
     from .arresting.landing import LEVEL_DEFAULTS
 

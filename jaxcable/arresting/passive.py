@@ -45,6 +45,7 @@ __all__ = [
     "G_CRITERIA",
     "LandingCriteria",
     "PassiveLandingScene",
+    "SAVE_SPACING_S",
     "SmoothingWidths",
     "landing_outputs",
     "passive_landing_scene",
@@ -56,6 +57,43 @@ G_CRITERIA = 9.80
 """The g of the paper's success criteria (section IV.A: "5 g where g = 9.80 m/s^2")."""
 
 FIDELITY_LEVELS = ("1dof", "rigid", "ale", "full")
+
+SAVE_SPACING_S = 1e-3
+"""Default spacing of the saved samples of a passive landing [s], every level: the scene saves
+``round(t1 / SAVE_SPACING_S) + 1`` samples over ``[0, t1]`` (:meth:`PassiveLandingScene.default_save_ts`),
+as do the sweeps (:func:`jaxcable.sweep.passive_case_fn`).
+
+The criteria a_max and sigma_max are maxima over the saved samples. The scene's old default, a
+fixed *number* (401 samples: 5 ms at 2 s, 2.5 ms at 1 s), made them depend on the run's duration:
+design case, 2 s against 1 s, rigid level a_max 7.0286 / 7.0359 g, sigma_max 630.91 / 631.21 MPa;
+full level sigma_max 766 / 785 MPa. With a fixed *spacing* the maxima of two runs that both contain
+the peaks are equal. Measured on the design case, 1 s, relative miss of (a_max, sigma_max) against
+sampling at 0.05 ms (ale, full: one run, sub-grids) or 0.25 ms (rigid; ``/tmp`` scripts):
+
+=======  ==================  ==================  ==================  ==================
+level    5 ms                2.5 ms              1 ms                0.25 ms
+=======  ==================  ==================  ==================  ==================
+rigid    1.1e-3, 5.3e-4      2.1e-5, 4.7e-5      6.8e-6, 0           0, 0 (reference)
+ale      9.0e-3, 2.5e-2      1.6e-3, 7.5e-3      0, 2.2e-3           0, 2.8e-5
+full     2.6e-2, 4.2e-2      1.2e-2, 1.8e-2      2.8e-3, 2.5e-3      0, < 1e-4
+=======  ==================  ==================  ==================  ==================
+
+(z_max: < 2e-5 at 2.5 ms and finer; the interpolated stop time: < 1e-4.) Over the sweeps' 40 rigid
+cases: 5 ms up to 0.13 %, 2.5 ms 0.03 %, 1 ms 4e-5. Cost of 1 ms against the old 401 samples (``run_landing``,
+interleaved runs, median): rigid 1 s 0.049 -> 0.051 s, 2 s 0.092 -> 0.096 s; ale 1 s 4.18 -> 4.19 s
+(the solver dominates; the probe costs ~33 us per sample); full 1 s 8.6 -> 9.0 s (single runs,
+within this shared machine's ~25 % timing noise). Why 1 ms at every level: one grid for
+``jaxcable land``, the sweeps and the design, cheap at the rigid level that the sweeps and the
+design batch (0.25 ms costs 2.7x the solve of a 2 s rigid landing). A coarser 2 ms at ale/full was
+rejected (misses sigma_max by 0.36 % / 1.9 %). At ale/full 1 ms still misses the hook-impact
+stress and acceleration peaks by 0.2-0.3 % (they last less than 1 ms; small against the mesh's
+4-5 %); pass ``save_spacing_s=2.5e-4`` for < 1e-4."""
+
+
+def _check_save_grid(save_spacing_s, n_save):
+    check_positive("save_spacing_s", save_spacing_s)
+    if n_save is not None and (isinstance(n_save, bool) or not isinstance(n_save, (int, np.integer)) or n_save < 2):
+        raise ValueError(f"n_save must be an integer >= 2 or None, got {n_save!r}")
 
 
 class LandingCriteria(eqx.Module):
@@ -87,7 +125,10 @@ class PassiveLandingScene(AbstractScene):
     capture: CaptureState
     gravity: jax.Array
     t_end_s: float = eqx.field(static=True, default=2.0)
-    n_save: int = eqx.field(static=True, default=401)
+    save_spacing_s: float = eqx.field(static=True, default=SAVE_SPACING_S)
+    """Spacing of the default saved samples [s] (:data:`SAVE_SPACING_S`; see :meth:`default_save_ts`)."""
+    n_save: int | None = eqx.field(static=True, default=None)
+    """Number of default saved samples over ``[0, t1]``; ``None`` (default): one per ``save_spacing_s``."""
     wind: eqx.Module | None = None
     """:class:`.wind.WindField` or None (still air): aerodynamic loads on the rocket (eqs 43-44, the
     free rocket: the engine and its guidance are off after capture) and, at the ale/full levels, on
@@ -98,6 +139,7 @@ class PassiveLandingScene(AbstractScene):
     """Scene time 0 is wind time ``wind_time_offset_s`` [s] (the capture instant of a two-phase run)."""
 
     def __check_init__(self):
+        _check_save_grid(self.save_spacing_s, self.n_save)
         if self.wind is not None and self.aero is None:
             raise ValueError("PassiveLandingScene: wind given without aero coefficients (aero=None)")
 
@@ -150,8 +192,26 @@ class PassiveLandingScene(AbstractScene):
             aero_work=aux["aero_power_W"],
         )
 
+    def num_saved(self, t1) -> int:
+        """Number of default saved samples over ``[0, t1]``: ``n_save`` if given, else
+        ``round(t1 / save_spacing_s) + 1`` (at least 2). ``t1`` must be concrete (not traced)."""
+        if self.n_save is not None:
+            return int(self.n_save)
+        if isinstance(t1, jax.core.Tracer):
+            raise ValueError(
+                "PassiveLandingScene.default_save_ts: t1 is traced (under jit/vmap/grad), so the number of "
+                f"samples at one per save_spacing_s = {self.save_spacing_s} s is unknown; pass t1 as a Python "
+                "float, give the scene a fixed n_save, or pass save_ts to simulate"
+            )
+        t1 = float(t1)
+        check_positive("t1", t1)
+        return max(2, round(t1 / self.save_spacing_s) + 1)
+
     def default_save_ts(self, t1):
-        return jnp.linspace(0.0, t1, self.n_save)
+        """``num_saved(t1)`` equally spaced times over ``[0, t1]`` [s]: one per ``save_spacing_s``
+        (1 ms, :data:`SAVE_SPACING_S`) unless ``n_save`` is given, so that the maxima a_max and
+        sigma_max do not depend on the run's duration."""
+        return jnp.linspace(0.0, t1, self.num_saved(t1))
 
     def default_snapshot_ts(self, t1):
         return jnp.linspace(0.0, t1, 5)
@@ -305,6 +365,8 @@ def passive_landing_scene(
     wind_time_offset_s=0.0,
     cable_model: str | None = None,
     rocket_params=None,
+    save_spacing_s: float = SAVE_SPACING_S,
+    n_save: int | None = None,
 ):
     """The passive-deceleration scene with the paper's Table 1 defaults at a fidelity level
     (``rigid``, ``ale`` or ``full``; the ``1dof`` level is run by :func:`run_landing`).
@@ -345,6 +407,10 @@ def passive_landing_scene(
     ``wind`` (:class:`.wind.WindField`, default None: still air), ``aero``
     (:class:`.wind.AeroCoefficients`, default ``AeroCoefficients()`` when wind is given) and
     ``wind_time_offset_s`` [s]: air loads on the rocket and (ale/full) the arresting spans.
+
+    ``save_spacing_s`` [s] (default :data:`SAVE_SPACING_S`, 1 ms) or ``n_save`` (a fixed number of
+    samples, default None): the saved grid when :func:`jaxcable.simulate` gets no ``save_ts``
+    (:meth:`PassiveLandingScene.default_save_ts`); the maxima a_max and sigma_max are taken over it.
     """
     from ..body.landing_rocket import flexible_landing_rocket, rigid_landing_rocket
 
@@ -355,6 +421,7 @@ def passive_landing_scene(
         cable_model = "massless" if fidelity == "rigid" else "ale"
     check_choice("cable_model", cable_model, ("massless", "ale"))
     check_positive("cable_damping_s", cable_damping_s, allow_zero=True)
+    _check_save_grid(save_spacing_s, n_save)
     capture = CaptureState() if capture is None else capture
     layout = ArrestingLayout() if layout is None else layout
     buffer = BufferDevice() if buffer is None else buffer
@@ -404,5 +471,5 @@ def passive_landing_scene(
             cables = dataclasses.replace(cables, wind=wind, aero=aero, wind_time_offset_s=wind_time_offset_s)
     return PassiveLandingScene(
         rocket=rocket, cables=cables, capture=capture, gravity=gravity, t_end_s=t_end_s, wind=wind, aero=aero,
-        wind_time_offset_s=wind_time_offset_s,
+        wind_time_offset_s=wind_time_offset_s, save_spacing_s=save_spacing_s, n_save=n_save,
     )  # fmt: skip

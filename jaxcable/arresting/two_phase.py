@@ -360,7 +360,10 @@ def two_phase_outputs(
     False: still air after capture.
 
     The smooth outputs (``smooth_*``) are for gradients: a soft minimum of the capture margins
-    (width ``margin_width_m``) and the soft maxima of :func:`smooth_landing_outputs`."""
+    (width ``margin_width_m``) and the soft maxima of :func:`smooth_landing_outputs`. The passive
+    phase's maxima are taken on the passive scene's default grid, one sample per
+    :data:`~jaxcable.arresting.passive.SAVE_SPACING_S` (1 ms; ``passive_kwargs`` may set
+    ``save_spacing_s`` or ``n_save``), as in :func:`run_two_phase` and ``jaxcable land``."""
     from ..simulate import simulate
     from .landing import LEVEL_DEFAULTS, LEVEL_STEP_CONTROL
 

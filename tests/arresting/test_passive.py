@@ -1,5 +1,6 @@
 """Passive-deceleration scenes: levels, the 1-DOF limit, energy budget, gradients, bad input, CLI."""
 
+import dataclasses
 import json
 import subprocess
 import sys
@@ -14,7 +15,7 @@ from jaxcable import simulate
 from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.landing import report_landing, run_landing
 from jaxcable.arresting.layout import ArrestingLayout, CaptureState
-from jaxcable.arresting.passive import passive_landing_scene, smooth_landing_outputs
+from jaxcable.arresting.passive import SAVE_SPACING_S, passive_landing_scene, smooth_landing_outputs
 from jaxcable.arresting.wind import WindField
 
 KEYS = ("z_max_m", "a_max_g", "sigma_max_mpa", "stop_time_s", "criteria_met", "solver_status")
@@ -119,7 +120,7 @@ def test_smooth_outputs_gradients_match_finite_differences():
         # solver's adaptive-step noise (rtol 1e-8); 2% of the output's own scale
         assert np.allclose(jac[:, j], fd, rtol=0.02, atol=0.02 * scale), (j, jac[:, j], fd)
     soft, hard = outputs(x0)
-    n = 401
+    n = scene.default_save_ts(1.0).shape[0]  # one sample per ms: 1001
     assert float(hard["z_max_m"]) <= float(soft[0]) <= float(hard["z_max_m"]) + 0.05 * np.log(n)
 
 
@@ -148,6 +149,43 @@ def test_bad_input_gets_clear_errors():
     assert cli_main(["land", "--phase", "full", "--fine-elements", "4"]) == 2
     with pytest.raises(ValueError, match="vertical central"):
         run_landing("1dof", capture=CaptureState(x_m=3.0))
+
+
+def test_saved_grid_has_a_fixed_spacing_so_the_maxima_do_not_depend_on_the_duration():
+    """The criteria are maxima over the saved samples. With a fixed spacing (1 ms) the grid of a 1 s
+    run is the first half of a 2 s run's grid, and the adaptive steps over the first second are the
+    same (the step controller does not see t1 until the last step), so a_max and sigma_max, whose
+    peaks lie in the first second (the descent stops at 0.81 s), agree to rounding (measured: equal).
+    The old fixed count (401 samples: 2.5 ms at 1 s, 5 ms at 2 s) gave 7.0359 / 7.0286 g and
+    631.21 / 630.91 MPa (1.0e-3 and 4.8e-4 apart), so 1e-9 separates the two by 5 orders."""
+    assert SAVE_SPACING_S == 1e-3
+    runs = {t: run_landing("rigid", t_end_s=t) for t in (1.0, 2.0)}
+    for t, run in runs.items():
+        assert run.ts.shape == (round(t / SAVE_SPACING_S) + 1,)
+        np.testing.assert_allclose(np.diff(run.ts), SAVE_SPACING_S, rtol=1e-9)
+        assert run.outputs["stop_time_s"] < 0.9
+    for key in ("a_max_g", "sigma_max_mpa"):
+        assert runs[1.0].outputs[key] == pytest.approx(runs[2.0].outputs[key], rel=1e-9), key
+    # an explicit spacing or count still sets the grid
+    assert passive_landing_scene("rigid", save_spacing_s=2e-3).default_save_ts(1.0).shape == (501,)
+    assert passive_landing_scene("rigid", n_save=401).default_save_ts(2.0).shape == (401,)
+
+
+def test_bad_save_grid_gets_clear_errors():
+    for bad in (0.0, -1e-3, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="save_spacing_s"):
+            passive_landing_scene("rigid", save_spacing_s=bad)
+    for bad in (1, 0, 2.5, True):
+        with pytest.raises(ValueError, match="n_save"):
+            passive_landing_scene("rigid", n_save=bad)
+    scene = passive_landing_scene("rigid")
+    with pytest.raises(ValueError, match="save_spacing_s"):
+        dataclasses.replace(scene, save_spacing_s=0.0)  # the scene itself checks, not only the builder
+    # the spacing rule needs a concrete t1; a fixed n_save does not
+    with pytest.raises(ValueError, match="t1 is traced"):
+        jax.jit(lambda t1: scene.default_save_ts(t1))(1.0)
+    fixed = dataclasses.replace(scene, n_save=11)
+    assert jax.jit(lambda t1: fixed.default_save_ts(t1))(1.0).shape == (11,)
 
 
 def test_deviated_capture_rigid_level_is_finite_and_recentres():
