@@ -195,7 +195,9 @@ def section_bias(args):
         row["summary"] = criteria_summary(pr, res)
         out.append(row)
         print(f"bias x{factor}: " + ", ".join(f"{k} {row[k]['mean']:.3f}" for k in CRITERIA), flush=True)
-    return dict(n=args.bias_n, rows=out)
+    from jaxcable.arresting.passive import SAVE_SPACING_S
+
+    return dict(n=args.bias_n, rows=out, n_save=int(round(args.t_end / SAVE_SPACING_S)) + 1)
 
 
 def section_landscape(args):
@@ -441,8 +443,8 @@ def write_md(data, path):
             "## 2. Bias of the smooth criteria",
             "",
             _provenance(data["bias"]),
-            f"Soft max (width log-sum-exp over the 401 saved samples) minus hard max, per case, paper design, n = {b['n']}. "
-            "The soft max is an upper bound (bias >= 0) and exceeds the max by at most width log(401) = 6.0 widths; "
+            f"Soft max (width log-sum-exp over the {b.get('n_save', 401)} saved samples) minus hard max, per case, paper design, n = {b['n']}. "
+            f"The soft max is an upper bound (bias >= 0) and exceeds the max by at most width log({b.get('n_save', 401)}) = {np.log(b.get('n_save', 401)):.1f} widths; "
             "it is largest where the history stays near its maximum for many samples (z after the stop).",
             "",
             "| widths (z [m], a [g], σ [MPa]) | z_max bias mean / min / max [m] | a_max bias mean / min / max [g] | σ_max bias mean / min / max [MPa] | worst-case bias z, a, σ |",

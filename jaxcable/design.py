@@ -786,7 +786,9 @@ def paper_start(problem: DesignProblem) -> jax.Array:
     """The paper's section II.B design as a point of ``problem.space``: ``m_w``, ``F_f`` of
     :func:`jaxcable.arresting.one_dof.paper_design` (m_t_bar = 2, F_t_bar of eq 19; 1388.9 kg,
     3.0886e5 N), ``a_p`` of Table 4 for the problem's scenario (``problem.gain_per_s``) and brake-profile
-    factors of 1 (the constant brake); a variable other than those takes the middle of its bounds."""
+    factors of 1 (the constant brake); a variable other than those takes the middle of its bounds.
+    What is not a design variable keeps ``problem.buffer``'s value: with ``--vars m_w,profile:K`` the
+    brake's F_f is Table 1's 3.13e5 N (the default ``BufferDevice``), not eq 19's 3.0886e5 N."""
     from .arresting.one_dof import paper_design
 
     p = paper_design()

@@ -92,7 +92,9 @@ def test_smooth_criteria_bound_the_hard_ones(problem, at_paper):
     """Per case, soft max >= hard max (logsumexp is an upper bound) and <= hard + width log(n_save)."""
     aux = at_paper[4]
     w = SmoothingWidths()
-    n_save = 401
+    from jaxcable.arresting.passive import SAVE_SPACING_S
+
+    n_save = round(problem.t_end_s / SAVE_SPACING_S) + 1  # the scene's default grid (1 ms)
     for key, width in (("z_max_m", w.z_m), ("a_max_g", w.a_g), ("sigma_max_mpa", w.sigma_mpa)):
         soft, hard = np.asarray(aux["smooth"][key]), np.asarray(aux["hard"][key])
         assert np.all(soft >= hard - 1e-12), key
