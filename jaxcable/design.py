@@ -101,8 +101,11 @@ against central differences in float64 (``tests/test_design.py``) and agreeing t
   ``BacksolveAdjoint`` cannot be used: :func:`jaxcable.simulate` saves its probes
   with ``SubSaveAt``, which diffrax's backsolve adjoint does not support.
 
-The goal of <= 3x is met at n = 8 (2.5x forward mode, 2.95x reverse) and not reliably at n = 32
-(reverse mode with 2048 checkpoints: 3.0-3.8x; ``experiments/results/bench_design.md``).
+The goal of <= 3x is met at n = 8 (2.5x forward mode; reverse 2.95-3.4x) and not at n = 32
+(reverse mode with 2048 checkpoints: 3.0-3.8x over several runs, 3.56x in session 7; forward mode
+4.25x; ``experiments/results/bench_design.md``). With many design variables reverse mode's cost
+does not grow with their number: 17 variables at n = 16 cost 0.78 s against 0.24 s forward
+(``bench_design_profile.md``), which is what makes L-BFGS beat Nelder-Mead there.
 The gradient is that of the discrete adaptive solve: at the rigid level's rtol = 1e-6 it is 0.6 %
 from the converged gradient (rtol 1e-8: 0.07 %), which is ample for the optimiser but not for a
 finite-difference check (the tests use rtol 1e-8). Measurements: ``experiments/bench_design.py``.
@@ -120,12 +123,14 @@ Readings, corrections and measurements
   smooth criteria meet the limits meets the hard ones. Their bias (soft - hard) grows with the number
   of samples within a few widths of the maximum, ``width * log(k)``: it is largest for ``z_max``,
   whose history sits on a plateau after the stop. Measured at the paper design over 64 Table 8
-  captures of scenario I (rigid, 1.2 s, 401 samples): with the default widths (0.05 m, 0.05 g,
-  5 MPa) the mean bias is 0.173 m on z_max, 0.079 g on a_max, 7.7 MPa on sigma_max (1.7 %, 1.6 %,
-  1.0 % of the limits; range over the cases 0.16-0.20 m, 0.055-0.11 g, 6.4-10.6 MPa); half the
-  widths give 0.077 m, 0.030 g, 3.0 MPa. The penalties therefore act about 1-2 % inside the hard
-  limits; the bias of z is nearly constant over the batch (0.16-0.20 m), so it shifts the optimum
-  rather than distorting the objective's shape.
+  captures of scenario I (rigid, 1.2 s, the scene's 1 ms grid = 1201 samples): with the default
+  widths (0.05 m, 0.05 g, 5 MPa) the mean bias is 0.228 m on z_max, 0.133 g on a_max, 13.2 MPa on
+  sigma_max (2.3 %, 2.7 %, 1.6 % of the limits; range over the cases 0.22-0.26 m, 0.11-0.17 g,
+  11.8-16.1 MPa); half the widths give 0.104 m, 0.057 g, 5.6 MPa. (On the former 401-sample grid:
+  0.173 m, 0.079 g, 7.7 MPa: the bias grows with the samples near the maximum, by at most
+  ``width * log 3`` for 3x the samples.) The penalties therefore act about 2-3 % inside the hard
+  limits; the bias of z is nearly constant over the batch, so it shifts the optimum rather than
+  distorting the objective's shape.
 * **Can m_w and F_f alone meet the criteria over Table 8?** At the rigid level with the default
   cable damping (1e-5 s): no. On a grid m_w = 300-4500 kg x F_f = 2.2e5-4.4e5 N over the 16-case
   optimisation batch, no design meets all three criteria in more than 25 % of the cases, and the
