@@ -105,4 +105,6 @@ class BufferDevice(eqx.Module):
     def brake_power(self, u_dot, u=0.0):
         """Power dissipated by the brake [W] (>= 0) at block rate ``u_dot`` [m/s] and travel ``u`` [m]."""
         a = self.transfer_rate
-        return self.brake_force(a * u_dot, a * u) * a * u_dot
+        w_dot = a * u_dot  # F(w') w', not F(w') a u': the round-off of the constant brake before
+        # the profile existed (tests/test_design.py::test_reverse_mode_matches_forward_mode)
+        return self.brake_force(w_dot, a * u) * w_dot
