@@ -1126,6 +1126,36 @@ def _check_count(name, value, minimum, what=""):
         raise ValueError(f"{name} must be a {kind} integer{what}, got {value!r}")
 
 
+class _Rows:
+    """The rows of a :class:`DesignHistory` as the optimisers evaluate: one :meth:`add` per
+    objective evaluation (wall time since construction), :meth:`history` at the end."""
+
+    def __init__(self, record, criteria_names):
+        self.record, self.criteria_names = record, tuple(criteria_names)
+        self.cols = dict(x=[], objective=[], grad_norm=[], worst_hard=[], success_rate=[], wall_s=[])
+        self.t0 = time.perf_counter()
+
+    def __len__(self):
+        return len(self.cols["objective"])
+
+    def add(self, j: float, grad_norm: float, aux):
+        worst, success = self.record(aux) if self.record is not None else ([np.nan] * len(self.criteria_names), np.nan)
+        self.cols["x"].append(np.asarray(aux["x"]))
+        self.cols["objective"].append(j)
+        self.cols["grad_norm"].append(grad_norm)
+        self.cols["worst_hard"].append(worst)
+        self.cols["success_rate"].append(success)
+        self.cols["wall_s"].append(time.perf_counter() - self.t0)
+
+    def history(self, method: str, space: DesignSpace) -> "DesignHistory":
+        return DesignHistory(
+            method=method,
+            names=space.names,
+            criteria_names=self.criteria_names,
+            **{k: np.asarray(v, dtype=float) for k, v in self.cols.items()},
+        )
+
+
 def _check_steps(steps):
     _check_count("steps", steps, 0)
 
@@ -1154,19 +1184,12 @@ def optax_minimise(
     opt = optax.adam(learning_rate) if optimizer is None else optimizer
     u = space.to_unconstrained(x0)
     state = opt.init(u)
-    rows = dict(x=[], objective=[], grad_norm=[], worst_hard=[], success_rate=[], wall_s=[])
-    t0 = time.perf_counter()
+    rows = _Rows(record, criteria_names)
     for i in range(steps + 1):
         j, g, aux = value_and_grad(u)
         j = float(j)
         g_np = np.asarray(g)
-        worst, success = record(aux) if record is not None else ([np.nan] * len(criteria_names), np.nan)
-        rows["x"].append(np.asarray(aux["x"]))
-        rows["objective"].append(j)
-        rows["grad_norm"].append(float(np.linalg.norm(g_np)))
-        rows["worst_hard"].append(worst)
-        rows["success_rate"].append(success)
-        rows["wall_s"].append(time.perf_counter() - t0)
+        rows.add(j, float(np.linalg.norm(g_np)), aux)
         if callback is not None:
             callback(i, j, np.asarray(aux["x"]), aux)
         if i == steps:
@@ -1175,12 +1198,7 @@ def optax_minimise(
             raise FloatingPointError(f"non-finite objective or gradient at step {i}: J = {j}, dJ/du = {g_np}")
         updates, state = opt.update(g, state, u)
         u = optax.apply_updates(u, updates)
-    return DesignHistory(
-        method="adam" if optimizer is None else "optax",
-        names=space.names,
-        criteria_names=tuple(criteria_names),
-        **{k: np.asarray(v, dtype=float) for k, v in rows.items()},
-    )
+    return rows.history("adam" if optimizer is None else "optax", space)
 
 
 def lbfgs_minimise(
@@ -1213,19 +1231,12 @@ def lbfgs_minimise(
     opt = optax.scale_by_lbfgs(memory_size=memory_size)
     u = space.to_unconstrained(x0)
     state = opt.init(u)
-    rows = dict(x=[], objective=[], grad_norm=[], worst_hard=[], success_rate=[], wall_s=[])
-    t0 = time.perf_counter()
+    rows = _Rows(record, criteria_names)
 
     def evaluate(u_):
         j, g, aux = value_and_grad(u_)
-        j, g_np = float(j), np.asarray(g)
-        worst, success = record(aux) if record is not None else ([np.nan] * len(criteria_names), np.nan)
-        rows["x"].append(np.asarray(aux["x"]))
-        rows["objective"].append(j)
-        rows["grad_norm"].append(float(np.linalg.norm(g_np)))
-        rows["worst_hard"].append(worst)
-        rows["success_rate"].append(success)
-        rows["wall_s"].append(time.perf_counter() - t0)
+        j = float(j)
+        rows.add(j, float(np.linalg.norm(np.asarray(g))), aux)
         return j, g, aux
 
     j, g, aux = evaluate(u)
@@ -1233,7 +1244,7 @@ def lbfgs_minimise(
         raise FloatingPointError(f"non-finite objective or gradient at the start: J = {j}, dJ/du = {np.asarray(g)}")
     if callback is not None:
         callback(0, j, np.asarray(aux["x"]), aux)
-    while len(rows["objective"]) < max_evaluations:
+    while len(rows) < max_evaluations:
         d, new_state = opt.update(g, state, u)
         slope = float(jnp.vdot(g, d))
         if not slope > 0.0:  # not a descent direction: restart the memory from here
@@ -1241,7 +1252,7 @@ def lbfgs_minimise(
             d, new_state = opt.update(g, state, u)
             slope = float(jnp.vdot(g, d))
         step, accepted = 1.0, False
-        while len(rows["objective"]) < max_evaluations:
+        while len(rows) < max_evaluations:
             u_try = u - step * d
             j_try, g_try, aux_try = evaluate(u_try)
             finite = np.isfinite(j_try) and np.all(np.isfinite(np.asarray(g_try)))
@@ -1253,13 +1264,8 @@ def lbfgs_minimise(
             break
         u, j, g, aux, state = u_try, j_try, g_try, aux_try, new_state
         if callback is not None:
-            callback(len(rows["objective"]) - 1, j, np.asarray(aux["x"]), aux)
-    return DesignHistory(
-        method="lbfgs",
-        names=space.names,
-        criteria_names=tuple(criteria_names),
-        **{k: np.asarray(v, dtype=float) for k, v in rows.items()},
-    )
+            callback(len(rows) - 1, j, np.asarray(aux["x"]), aux)
+    return rows.history("lbfgs", space)
 
 
 def nelder_mead_minimise(
@@ -1283,24 +1289,17 @@ def nelder_mead_minimise(
     u0 = np.asarray(space.to_unconstrained(x0))
     k = u0.shape[0]
     simplex = np.vstack([u0] + [u0 + initial_step * np.eye(k)[i] for i in range(k)])
-    rows = dict(x=[], objective=[], grad_norm=[], worst_hard=[], success_rate=[], wall_s=[])
-    t0 = time.perf_counter()
+    rows = _Rows(record, criteria_names)
 
     class _Reached(Exception):
         pass
 
     def f(u):
-        if len(rows["objective"]) >= max_evaluations:
+        if len(rows) >= max_evaluations:
             raise _Reached
         j, aux = value(jnp.asarray(u))
         j = float(j)
-        worst, success = record(aux) if record is not None else ([np.nan] * len(criteria_names), np.nan)
-        rows["x"].append(np.asarray(aux["x"]))
-        rows["objective"].append(j)
-        rows["grad_norm"].append(np.nan)
-        rows["worst_hard"].append(worst)
-        rows["success_rate"].append(success)
-        rows["wall_s"].append(time.perf_counter() - t0)
+        rows.add(j, np.nan, aux)
         if target is not None and j <= target:
             raise _Reached
         # a failed solve gives NaN: Nelder-Mead treats +inf as "worse than every vertex"
@@ -1315,12 +1314,7 @@ def nelder_mead_minimise(
         )
     except _Reached:
         pass
-    return DesignHistory(
-        method="nelder-mead",
-        names=space.names,
-        criteria_names=tuple(criteria_names),
-        **{k: np.asarray(v, dtype=float) for k, v in rows.items()},
-    )
+    return rows.history("nelder-mead", space)
 
 
 def optimise(
