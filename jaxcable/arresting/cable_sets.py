@@ -38,6 +38,10 @@ from .layout import HOOK_OF_CABLE, ArrestingLayout, span_endpoints
 __all__ = ["AleCables", "HookPoints", "MasslessCables", "throat_weights"]
 
 
+_CABLE_OF_HOOK = np.argsort(HOOK_OF_CABLE)
+"""Cable engaged by each hook (the inverse permutation of ``HOOK_OF_CABLE``)."""
+
+
 class HookPoints(eqx.Module):
     """World positions and velocities of the hooks' points: (4 hooks, 3 points, 3) [m], [m/s].
     Points: 0 hinge, 1 tip, 2 barb end."""
@@ -138,7 +142,8 @@ class MasslessCables(eqx.Module):
         damping = self.layout.EA_N * self.damping_s * strain_rate
         tension = elastic + damping
         pull = tension[:, None] * (e_a + e_b)  # (4 cables, 3) force on each engaged hook's throat
-        forces = jnp.zeros((4, 3, 3)).at[np.array(HOOK_OF_CABLE)].set(self.throat_w[None, :, None] * pull[:, None, :])
+        # hook h is engaged by cable CABLE_OF_HOOK[h]: a static permutation (a gather, not a scatter)
+        forces = (self.throat_w[None, :, None] * pull[:, None, :])[_CABLE_OF_HOOK]
         b = self.buffer
         m_eff = b.counterweight_mass_kg * b.transfer_rate**2
         udd = (
@@ -148,7 +153,7 @@ class MasslessCables(eqx.Module):
         ) / m_eff
         damping_power = jnp.sum(damping * strain_rate * self.unstretched_m)
         dstate = MasslessState(u=state.udot, udot=udd, dissipated=jnp.sum(b.brake_power(state.udot, state.u)) + damping_power)
-        normal = jnp.zeros(4).at[np.array(HOOK_OF_CABLE)].set(jnp.linalg.norm(pull, axis=1))
+        normal = jnp.linalg.norm(pull, axis=1)[_CABLE_OF_HOOK]
         aux = dict(
             tension_max_N=jnp.max(tension),
             hook_normal_force_N=normal,

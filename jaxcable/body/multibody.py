@@ -610,6 +610,16 @@ def _inertia_wrenches(system, poses, u):
     return -m[:, None] * acc_bias, -gyro, (v, omega_body)
 
 
+def _sum_into_bodies(idx, values, n_bodies):
+    """``out[n] = sum of values[b] over b with idx[b] == n`` for a static index ``idx`` (B,), as a
+    dense product with a constant 0/1 matrix: the same sums as ``zeros.at[idx].add(values)``,
+    without a scatter (XLA's CPU scatter is a separate, unfused kernel, and so is its tangent; this
+    runs ~10^5 times per landing)."""
+    onehot = np.zeros((n_bodies, len(idx)))
+    onehot[np.asarray(idx), np.arange(len(idx))] = 1.0
+    return jnp.einsum("nb,bd->nd", jnp.asarray(onehot, values.dtype), values)
+
+
 def _load_wrenches(system, poses, point_forces, body_torques_world, gravity):
     """Point forces, body torques and gravity as ``(force (N,3) world, torque (N,3) body frame)``.
 
@@ -626,8 +636,8 @@ def _load_wrenches(system, poses, point_forces, body_torques_world, gravity):
         f = jnp.asarray(world_forces)
         f = f[None] if squeeze else f
         arm = _matvec_points(R[idx], pts)
-        force = force.at[idx].add(jnp.sum(f, axis=1))
-        torque_world = torque_world.at[idx].add(jnp.sum(jnp.cross(arm, f), axis=1))
+        force = force + _sum_into_bodies(idx, jnp.sum(f, axis=1), force.shape[0])
+        torque_world = torque_world + _sum_into_bodies(idx, jnp.sum(jnp.cross(arm, f), axis=1), force.shape[0])
     if body_torques_world is not None:
         torque_world = torque_world + jnp.asarray(body_torques_world)
     return force, _matvec_t(R, torque_world)
