@@ -121,20 +121,14 @@ def _probe_saved_states(scene, ts, ys, t_final, final_state):
     fills them, without letting an ``inf`` state into the probe (whose gradient would be NaN)."""
     reached = jnp.isfinite(ts)
 
-    def fill(saved, final):
-        mask = reached.reshape(reached.shape + (1,) * (saved.ndim - 1))
-        return jnp.where(mask, saved, final[None])
+    def where_reached(values, otherwise):
+        return jnp.where(reached.reshape(reached.shape + (1,) * (values.ndim - 1)), values, otherwise)
 
-    ys = jax.tree_util.tree_map(fill, ys, final_state)
+    ys = jax.tree_util.tree_map(lambda saved, final: where_reached(saved, final[None]), ys, final_state)
     probes = jax.vmap(scene.probe)(jnp.where(reached, ts, t_final), ys)
-
-    def unreached_to_inf(p):
-        if not jnp.issubdtype(p.dtype, jnp.inexact):
-            return p
-        mask = reached.reshape(reached.shape + (1,) * (p.ndim - 1))
-        return jnp.where(mask, p, jnp.inf)
-
-    return jax.tree_util.tree_map(unreached_to_inf, probes)
+    return jax.tree_util.tree_map(
+        lambda p: where_reached(p, jnp.inf) if jnp.issubdtype(p.dtype, jnp.inexact) else p, probes
+    )
 
 
 def _solve(scene, t1, save_ts, snapshot_ts, solver, controller, adjoint, max_steps, dt0, progress_meter, probes_after):
