@@ -7,7 +7,10 @@ picks ``m_w`` and ``F_f`` from the 1-DOF model (vertical, central capture, rigid
 checks them by Monte Carlo. Here the same two numbers and the PD gain ``a_p`` (section II.A, eq 4;
 Table 4) are optimised directly on the criteria of a batch of deviated landings, with gradients
 through the diffrax solve: ``phase="passive"`` simulates Table 8 captured states in the passive
-scene at a chosen fidelity (``rigid`` by default); ``phase="full"`` simulates Table 3
+scene at a chosen fidelity (``rigid`` by default; at ``ale`` and ``full`` :func:`design_problem`
+meshes each case's cables on the host once, and the objective swaps the design's buffer into those
+scenes, since the mesh does not depend on the buffer; forward-mode gradients through an ALE solve
+agree with central differences to 3e-6, ``tests/test_design_ale.py``); ``phase="full"`` simulates Table 3
 terminal-guidance states under Table 4 wind, gust, motor delay and noise through both phases of
 :mod:`jaxcable.arresting.two_phase` (tracking at the rigid level, the capture event, the passive
 phase at level ``rigid``), so the capture margin and the tracking error join the criteria. A set
@@ -205,7 +208,8 @@ import numpy as np
 
 from ._validation import check_choice, check_finite, check_positive, check_range
 from .arresting.buffer import BufferDevice
-from .arresting.landing import LEVEL_DEFAULTS
+from .arresting.cable_sets import AleCables
+from .arresting.landing import LEVEL_DEFAULTS, LEVEL_STEP_CONTROL
 from .arresting.layout import ArrestingLayout, CaptureState
 from .arresting.passive import (
     DEFAULT_CABLE_DAMPING_S,
@@ -645,6 +649,11 @@ class DesignProblem(eqx.Module):
     """``forward`` (ForwardMode + jacfwd) or ``reverse`` (RecursiveCheckpointAdjoint + grad)"""
     checkpoints: int | None = eqx.field(static=True, default=None)
     """checkpoints of RecursiveCheckpointAdjoint in reverse mode (None: ``REVERSE_CHECKPOINTS``)"""
+    scenes: eqx.Module | None = None
+    """``fidelity`` ale or full (phase passive): the batch's passive scenes, built on the host by
+    :func:`design_problem` (their cable meshes need the concrete captured state) and stacked along
+    a leading axis (n,); the objective swaps the design's buffer into them. None at level rigid,
+    whose scenes are built inside the traced objective."""
 
     def __check_init__(self):
         check_choice("fidelity", self.fidelity, tuple(k for k in FIDELITY_LEVELS if k != "1dof"))
@@ -680,6 +689,11 @@ class DesignProblem(eqx.Module):
                 raise ValueError(f"phase='full' needs conditions with the entries {list(CONDITIONS)}, got {got}")
         elif self.conditions is not None:
             raise ValueError("conditions (wind, delay, noise per case) belong to phase='full'; got them with phase='passive'")
+        elif self.fidelity != "rigid" and self.scenes is None:
+            raise ValueError(
+                f"fidelity {self.fidelity!r} needs the batch's scenes built on the host (scenes=None): build the "
+                "problem with design_problem(..., fidelity=...), which meshes each case's cables"
+            )
         if self.weights.design_cost is not None and self.weights.design_cost.shape != (self.space.size,):
             raise ValueError(
                 f"weights.design_cost must have shape ({self.space.size},) for {self.space.names}, "
@@ -773,11 +787,18 @@ def design_problem(
     if fidelity in LEVEL_DEFAULTS:  # the level's measured tolerances unless given
         settings.setdefault("rtol", LEVEL_DEFAULTS[fidelity][1])
         settings.setdefault("atol", settings["rtol"])
+    buffer = BufferDevice() if buffer is None else buffer
+    layout = ArrestingLayout() if layout is None else layout
+    if phase == "passive" and fidelity != "rigid" and settings.get("scenes") is None:
+        settings["scenes"] = _host_built_scenes(
+            fidelity, captures, layout, buffer, settings.get("t_end_s", DesignProblem.t_end_s),
+            settings.get("cable_damping_s", DEFAULT_CABLE_DAMPING_S),
+        )  # fmt: skip
     return DesignProblem(
         space=space,
         captures=captures,
-        buffer=BufferDevice() if buffer is None else buffer,
-        layout=ArrestingLayout() if layout is None else layout,
+        buffer=buffer,
+        layout=layout,
         weights=ObjectiveWeights() if weights is None else weights,
         fidelity=fidelity,
         phase=phase,
@@ -841,17 +862,43 @@ def _scene(problem: DesignProblem, capture: CaptureState, x):
     )  # fmt: skip
 
 
-def _one_case(problem: DesignProblem, capture, x, adjoint):
-    """One capture: smooth and hard criteria, solver status and steps (scalars)."""
+def _host_built_scenes(fidelity, captures: CaptureState, layout, buffer, t_end_s, cable_damping_s):
+    """The passive scenes of a batch of concrete captures at level ale or full, stacked (n, ...)."""
+    from .sweep import _stack_cases
+
+    n = int(np.shape(captures.x_m)[0])
+    one = lambda j: jax.tree_util.tree_map(lambda v: v[j], captures)  # noqa: E731
+    return _stack_cases([
+        passive_landing_scene(fidelity, one(j), layout, buffer, t_end_s=t_end_s, cable_damping_s=cable_damping_s)
+        for j in range(n)
+    ])  # fmt: skip
+
+
+def _with_buffer(scene, buffer: BufferDevice):
+    """``scene`` with ``buffer`` in its cables: the massless cables hold one buffer, the ALE cables'
+    four subsystems a stacked one (leading axis 4). The mesh does not depend on the buffer."""
+    if isinstance(scene.cables, AleCables):
+        stacked = jax.tree_util.tree_map(lambda v: jnp.broadcast_to(v, (4,) + jnp.shape(v)), buffer)
+        return eqx.tree_at(lambda s: s.cables.subsystems.buffer, scene, stacked)
+    return eqx.tree_at(lambda s: s.cables.buffer, scene, buffer)
+
+
+def _one_case(problem: DesignProblem, scene, adjoint):
+    """One built scene: smooth and hard criteria, solver status and steps (scalars), with the
+    level's solver and step-size control (``LEVEL_DEFAULTS``, ``LEVEL_STEP_CONTROL``)."""
     from .simulate import simulate
 
+    pcoeff, icoeff = LEVEL_STEP_CONTROL[problem.fidelity]
     res = simulate(
-        _scene(problem, capture, x),
+        scene,
         problem.t_end_s,
+        solver=LEVEL_DEFAULTS[problem.fidelity][0],
         rtol=problem.rtol,
         atol=problem.atol,
         max_steps=problem.max_steps,
         adjoint=adjoint,
+        pcoeff=pcoeff,
+        icoeff=icoeff,
     )
     smooth = smooth_landing_outputs(res.ts, res.probes, problem.widths)
     hard = {k: res.outputs[k] for k in CRITERIA}
@@ -904,7 +951,10 @@ def _batch(problem: DesignProblem, x, adjoint):
     # one scene per case; the batch is a vmap over the cases (physics handles one case)
     if problem.phase == "full":
         return jax.vmap(lambda c, w: _one_two_phase_case(problem, c, w, x, adjoint))(problem.captures, problem.conditions)
-    return jax.vmap(lambda c: _one_case(problem, c, x, adjoint))(problem.captures)
+    if problem.scenes is not None:  # ale/full: meshed on the host by design_problem; swap the design in
+        buffer = _buffer(problem, x)
+        return jax.vmap(lambda sc: _one_case(problem, _with_buffer(sc, buffer), adjoint))(problem.scenes)
+    return jax.vmap(lambda c: _one_case(problem, _scene(problem, c, x), adjoint))(problem.captures)
 
 
 def _adjoint(problem):

@@ -38,8 +38,15 @@ from .layout import HOOK_OF_CABLE, ArrestingLayout, span_endpoints
 __all__ = ["AleCables", "HookPoints", "MasslessCables", "throat_weights"]
 
 
-_CABLE_OF_HOOK = np.argsort(HOOK_OF_CABLE)
+_CABLE_OF_HOOK = tuple(int(c) for c in np.argsort(HOOK_OF_CABLE))
 """Cable engaged by each hook (the inverse permutation of ``HOOK_OF_CABLE``)."""
+
+
+def _per_hook(per_cable):
+    """Reorder a per-cable array (4, ...) to per-hook order: static slices, no gather or scatter
+    (the vector field runs ~10^5 times per landing; the static indices are Python ints, so the same
+    code runs with float32 and its 32-bit indices)."""
+    return jnp.stack([per_cable[c] for c in _CABLE_OF_HOOK])
 
 
 class HookPoints(eqx.Module):
@@ -142,8 +149,7 @@ class MasslessCables(eqx.Module):
         damping = self.layout.EA_N * self.damping_s * strain_rate
         tension = elastic + damping
         pull = tension[:, None] * (e_a + e_b)  # (4 cables, 3) force on each engaged hook's throat
-        # hook h is engaged by cable CABLE_OF_HOOK[h]: a static permutation (a gather, not a scatter)
-        forces = (self.throat_w[None, :, None] * pull[:, None, :])[_CABLE_OF_HOOK]
+        forces = _per_hook(self.throat_w[None, :, None] * pull[:, None, :])
         b = self.buffer
         m_eff = b.counterweight_mass_kg * b.transfer_rate**2
         udd = (
@@ -153,7 +159,7 @@ class MasslessCables(eqx.Module):
         ) / m_eff
         damping_power = jnp.sum(damping * strain_rate * self.unstretched_m)
         dstate = MasslessState(u=state.udot, udot=udd, dissipated=jnp.sum(b.brake_power(state.udot, state.u)) + damping_power)
-        normal = jnp.linalg.norm(pull, axis=1)[_CABLE_OF_HOOK]
+        normal = _per_hook(jnp.linalg.norm(pull, axis=1))
         aux = dict(
             tension_max_N=jnp.max(tension),
             hook_normal_force_N=normal,
