@@ -343,10 +343,17 @@ class AleCables(eqx.Module):
             )
             return res.force_on_cable_nodes, res.force_on_hook_points, res.normal_force
 
-        over_elements = jax.vmap(pair, in_axes=(None, None, 0, 0, 0, 0))
-        over_caps = jax.vmap(over_elements, in_axes=(0, 0, None, None, None, None))
-        over_hooks = jax.vmap(over_caps, in_axes=(0, 0, None, None, None, None))
-        on_cable, on_hook, normal = over_hooks(caps_p, caps_v, r1, r2, a1, a2)  # (4, 2, n_span, ...)
+        # every (hook, capsule, element) pair as one flat batch of 8 n_span, all inputs broadcast:
+        # one vmap over equal-sized arrays. Measured inside the ale vector field (JAX 0.10.2 CPU,
+        # one state tangent, 4 cables): three nested vmaps with unbatched arguments gave this block
+        # a tangent of 1168 us against its 32 us primal; the flat batch 738 us against 29 us (the
+        # ale-level forward-mode design gradient over 0.1 s: 7.3 -> 5.9 s)
+        n_span = r1.shape[0]
+        flat = lambda a: a.reshape((-1,) + a.shape[3:])  # noqa: E731
+        caps = lambda c: flat(jnp.broadcast_to(c[:, :, None], (4, 2, n_span) + c.shape[2:]))  # noqa: E731
+        element = lambda e: flat(jnp.broadcast_to(e[None, None], (4, 2) + e.shape))  # noqa: E731
+        outs = jax.vmap(pair)(caps(caps_p), caps(caps_v), element(r1), element(r2), element(a1), element(a2))
+        on_cable, on_hook, normal = (o.reshape((4, 2, n_span) + o.shape[1:]) for o in outs)  # (4, 2, n_span, ...)
         f_cable = jnp.sum(on_cable, axis=(0, 1))  # (n_span, 2, 3)
         n_el_total = kin.length.shape[0]
         element_forces = jnp.zeros((n_el_total, 2, 3)).at[lo:hi].set(f_cable)
