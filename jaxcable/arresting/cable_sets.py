@@ -24,6 +24,8 @@ hook's three points). ``aux`` carries ``tension_max_N``, ``hook_normal_force_N``
 
 from __future__ import annotations
 
+import functools
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -199,6 +201,11 @@ class AleCables(eqx.Module):
     """Stacked initial coordinates (4, ...)."""
     span_slice: tuple = eqx.field(static=True)
     """(first, last+1) element indices of the arresting span within a cable's element list."""
+    contact_tangent_pairs: int | None = eqx.field(static=True, default=48)
+    """Number M of (cable, hook capsule, span element) pairs whose derivatives a JVP propagates:
+    the M of largest penetration (:func:`_contact_all_pairs`; exact while at most M pairs touch,
+    16 on the design case: ``contact_pairs_touching`` in the probes counts them). ``None``: every
+    pair. Values never depend on it."""
     wind: eqx.Module | None = None
     """A :class:`jaxcable.arresting.wind.WindField` loading the arresting spans (eq 45), or None
     (still air). Only the spans between the sliders are exposed: the tower runs and the block strands
@@ -213,6 +220,9 @@ class AleCables(eqx.Module):
     def __check_init__(self):
         if self.wind is not None and self.aero is None:
             raise ValueError("AleCables: wind given without aero coefficients (aero=None)")
+        m = self.contact_tangent_pairs
+        if m is not None and (isinstance(m, bool) or not isinstance(m, (int, np.integer)) or m < 1):
+            raise ValueError(f"AleCables.contact_tangent_pairs must be None or a positive integer, got {m!r}")
 
     def _span_drag(self, kin, t):
         """Cross-flow drag on the arresting span's elements: (element_forces (n_el, 2, 3), power [W])."""
@@ -321,57 +331,42 @@ class AleCables(eqx.Module):
         zero = jax.tree_util.tree_map(jnp.zeros_like, self.q0)
         return CableState(q=self.q0, qdot=zero, dissipated=jnp.zeros(4))
 
-    def _one_cable(self, sub: CableSubsystem, kin, hooks: HookPoints):
-        """Contact of every hook capsule with every element of this cable's arresting span.
+    def _contact(self, kin, hooks: HookPoints):
+        """Contact of every hook capsule (arm, barb) with every element of every cable's arresting
+        span: all (cable, hook, capsule, element) pairs, 4 x 8 x n_span (512 at the default mesh).
 
-        ``kin`` is the cable's :meth:`CableSubsystem.kinematics` (shared with its accelerations).
-        Returns ``(element_forces (n_el, 2, 3) on the cable material, f_hook (4, 3, 3), normal (4,),
-        power)``."""
-        from .contact import capsule_contact
-
+        ``kin`` is the four cables' stacked :meth:`CableSubsystem.kinematics` (shared with their
+        accelerations). Returns ``(span_forces (4, n_span, 2, 3) on the span elements' ends,
+        f_hook (4 hooks, 3 points, 3), normal (4,) per hook, power [W], touching)``, ``touching``
+        the number of pairs in contact. The values are always computed for every pair; derivatives
+        (JVPs, hence also reverse mode) follow ``contact_tangent_pairs`` (see
+        :func:`_contact_all_pairs`)."""
         lo, hi = self.span_slice
-        r1, r2 = kin.r[lo:hi], kin.r[lo + 1 : hi + 1]
-        a1, a2 = kin.a1[lo:hi], kin.a2[lo:hi]  # material velocities at element ends
-        # hook capsules: arm (hinge -> tip), barb (tip -> barb end): (4 hooks, 2 capsules, 2 ends, 3)
+        r1, r2 = kin.r[:, lo:hi], kin.r[:, lo + 1 : hi + 1]  # (4 cables, n_span, 3)
+        a1, a2 = kin.a1[:, lo:hi], kin.a2[:, lo:hi]  # material velocities at element ends
         P, V = hooks.positions, hooks.velocities
-        caps_p = jnp.stack([P[:, 0:2], P[:, 1:3]], axis=1)
+        caps_p = jnp.stack([P[:, 0:2], P[:, 1:3]], axis=1)  # (4 hooks, 2 caps, 2 ends, 3)
         caps_v = jnp.stack([V[:, 0:2], V[:, 1:3]], axis=1)
-
-        def pair(cp, cv, e1, e2, va, vb):
-            res = capsule_contact(
-                self.contact, cp[0], cp[1], self.hook_radius_m, cv[0], cv[1], e1, e2, self.cable_radius_m, va, vb
-            )
-            return res.force_on_cable_nodes, res.force_on_hook_points, res.normal_force
-
-        # every (hook, capsule, element) pair as one flat batch of 8 n_span, all inputs broadcast:
-        # one vmap over equal-sized arrays. Measured inside the ale vector field (JAX 0.10.2 CPU,
-        # one state tangent, 4 cables): three nested vmaps with unbatched arguments gave this block
-        # a tangent of 1168 us against its 32 us primal; the flat batch 738 us against 29 us (the
-        # ale-level forward-mode design gradient over 0.1 s: 7.3 -> 5.9 s)
-        n_span = r1.shape[0]
-        flat = lambda a: a.reshape((-1,) + a.shape[3:])  # noqa: E731
-        caps = lambda c: flat(jnp.broadcast_to(c[:, :, None], (4, 2, n_span) + c.shape[2:]))  # noqa: E731
-        element = lambda e: flat(jnp.broadcast_to(e[None, None], (4, 2) + e.shape))  # noqa: E731
-        outs = jax.vmap(pair)(caps(caps_p), caps(caps_v), element(r1), element(r2), element(a1), element(a2))
-        on_cable, on_hook, normal = (o.reshape((4, 2, n_span) + o.shape[1:]) for o in outs)  # (4, 2, n_span, ...)
-        f_cable = jnp.sum(on_cable, axis=(0, 1))  # (n_span, 2, 3)
-        n_el_total = kin.length.shape[0]
-        element_forces = jnp.zeros((n_el_total, 2, 3)).at[lo:hi].set(f_cable)
-        f_hook_caps = jnp.sum(on_hook, axis=2)  # (4 hooks, 2 caps, 2 ends, 3)
-        f_hook = jnp.zeros((4, 3, 3))
-        f_hook = f_hook.at[:, 0:2].add(f_hook_caps[:, 0]).at[:, 1:3].add(f_hook_caps[:, 1])
-        normal = jnp.sum(normal, axis=(1, 2))  # (4,) per hook
+        span_forces, f_caps, normal, penetration = _contact_all_pairs(
+            self.contact_tangent_pairs, self.contact, self.hook_radius_m, self.cable_radius_m,
+            caps_p, caps_v, r1, r2, a1, a2,
+        )  # fmt: skip
+        # a float count: diffrax fills the saved samples after an early end with inf
+        touching = jnp.sum(jnp.where(jax.lax.stop_gradient(penetration) > 0.0, 1.0, 0.0))
+        f_hook = jnp.stack([f_caps[:, 0, 0], f_caps[:, 0, 1] + f_caps[:, 1, 0], f_caps[:, 1, 1]], axis=1)
         # contact power on both sides (for the energy budget): sum F.v at the application points
-        power = jnp.sum(f_cable[:, 0] * a1) + jnp.sum(f_cable[:, 1] * a2)
-        power = power + jnp.sum(f_hook * V)
-        return element_forces, f_hook, normal, power
+        power = jnp.sum(span_forces[:, :, 0] * a1) + jnp.sum(span_forces[:, :, 1] * a2) + jnp.sum(f_hook * V)
+        return span_forces, f_hook, normal, power, touching
 
     def respond(self, state: CableState, hooks: HookPoints, t=0.0):
         """Cable accelerations and the forces on the hooks at time ``t`` [s] (used by the wind only)."""
+        kin = jax.vmap(lambda sub, q, qdot: sub.kinematics(q, qdot))(self.subsystems, state.q, state.qdot)
+        span_forces, f_hook, normal, power, touching = self._contact(kin, hooks)
+        lo, hi = self.span_slice
 
-        def one(sub, q, qdot):
-            kin = sub.kinematics(q, qdot)
-            element_forces, f_hook, normal, power = self._one_cable(sub, kin, hooks)
+        def one(sub, q, qdot, kin, span_forces):
+            n_el = kin.length.shape[0]
+            element_forces = jnp.pad(span_forces, ((lo, n_el - hi), (0, 0), (0, 0)))
             if self.wind is None:
                 aero_power = jnp.zeros(())
             else:
@@ -380,18 +375,19 @@ class AleCables(eqx.Module):
             qdd = sub.accelerations(q, qdot, element_forces=element_forces, kin=kin)
             diss = sub.dissipated_power(q, qdot, kin)
             tension = jnp.max(sub.element_tensions(kin))
-            return qdd, diss, f_hook, normal, power, tension, aero_power
+            return qdd, diss, tension, aero_power
 
-        qdd, diss, f_hook, normal, power, tension, aero_power = jax.vmap(one)(self.subsystems, state.q, state.qdot)
+        qdd, diss, tension, aero_power = jax.vmap(one)(self.subsystems, state.q, state.qdot, kin, span_forces)
         dstate = CableState(q=state.qdot, qdot=qdd, dissipated=diss)
         aux = dict(
             tension_max_N=jnp.max(tension),
-            hook_normal_force_N=jnp.sum(normal, axis=0),
+            hook_normal_force_N=normal,
             counterweight_rise_m=self.subsystems.buffer.transfer_rate * state.q.u,
-            contact_power_W=jnp.sum(power),
+            contact_power_W=power,
             aero_power_W=jnp.sum(aero_power),
+            contact_pairs_touching=touching,
         )
-        return jnp.sum(f_hook, axis=0), dstate, aux
+        return f_hook, dstate, aux
 
     def energies(self, state: CableState, hooks: HookPoints):
         def one(sub, q, qdot):
@@ -410,3 +406,92 @@ class AleCables(eqx.Module):
     def stresses_max(self, state: CableState):
         t = jax.vmap(lambda sub, q: jnp.max(sub.tensions(q)))(self.subsystems, state.q)
         return jnp.max(t)
+
+
+# ------------------------------------------------------------------------------------------------
+# Hook-cable contact of all pairs, with a sparse derivative
+# ------------------------------------------------------------------------------------------------
+
+
+def _pair_law(law, hook_radius, cable_radius, h0, h1, hv0, hv1, e1, e2, v1, v2):
+    from .contact import _capsule_contact
+
+    res = _capsule_contact(law, h0, h1, hook_radius, hv0, hv1, e1, e2, cable_radius, v1, v2)
+    return res.force_on_cable_nodes, res.force_on_hook_points, res.normal_force, res.penetration
+
+
+def _dense_pairs(law, hook_radius, cable_radius, caps_p, caps_v, r1, r2, a1, a2):
+    """Every pair as one flat vmapped batch; totals per span element, capsule and hook."""
+    n_span = r1.shape[1]
+    shape = (4, 4, 2, n_span)  # cable, hook, capsule, element
+    n = 32 * n_span
+
+    def element(e):
+        return jnp.broadcast_to(e[:, None, None], shape + (3,)).reshape(n, 3)
+
+    def capsule_end(c, end):
+        return jnp.broadcast_to(c[None, :, :, None, end], shape + (3,)).reshape(n, 3)
+
+    on_cable, on_hook, normal, penetration = jax.vmap(lambda *a: _pair_law(law, hook_radius, cable_radius, *a))(
+        capsule_end(caps_p, 0), capsule_end(caps_p, 1), capsule_end(caps_v, 0), capsule_end(caps_v, 1),
+        element(r1), element(r2), element(a1), element(a2),
+    )  # fmt: skip
+    span_forces = on_cable.reshape(shape + (2, 3)).sum(axis=(1, 2))  # (4 cables, n_span, 2, 3)
+    f_caps = on_hook.reshape(shape + (2, 3)).sum(axis=(0, 3))  # (4 hooks, 2 caps, 2 ends, 3)
+    normal = normal.reshape(shape).sum(axis=(0, 2, 3))  # (4,) per hook
+    return span_forces, f_caps, normal, penetration
+
+
+def _picked_pairs(picked, law, hook_radius, cable_radius, caps_p, caps_v, r1, r2, a1, a2):
+    """The same totals from the pairs with flat indices ``picked`` (m,) only (gathers in, one-hot
+    sums out: no scatter)."""
+    n_span = r1.shape[1]
+    m = picked.shape[0]
+    # flat index = ((cable * 4 + hook) * 2 + capsule) * n_span + element
+    cap = (picked // n_span) % 8  # hook * 2 + capsule
+    el = (picked // (8 * n_span)) * n_span + picked % n_span  # cable * n_span + element
+    cp, cv = caps_p.reshape(8, 2, 3), caps_v.reshape(8, 2, 3)
+    at_el = lambda a: a.reshape(4 * n_span, 3)[el]  # noqa: E731
+    on_c, on_h, nrm, _ = jax.vmap(lambda *a: _pair_law(law, hook_radius, cable_radius, *a))(
+        cp[cap, 0], cp[cap, 1], cv[cap, 0], cv[cap, 1], at_el(r1), at_el(r2), at_el(a1), at_el(a2)
+    )
+    to_el = (el[:, None] == jnp.arange(4 * n_span)[None, :]).astype(on_c.dtype)  # (m, 4 n_span)
+    to_cap = (cap[:, None] == jnp.arange(8)[None, :]).astype(on_c.dtype)  # (m, 8)
+    span_forces = (to_el.T @ on_c.reshape(m, 6)).reshape(4, n_span, 2, 3)
+    f_caps = (to_cap.T @ on_h.reshape(m, 6)).reshape(4, 2, 2, 3)
+    normal = (to_cap.T @ nrm).reshape(4, 2).sum(axis=1)
+    return span_forces, f_caps, normal
+
+
+@functools.partial(jax.custom_jvp, nondiff_argnums=(0,))
+def _contact_all_pairs(m, law, hook_radius, cable_radius, caps_p, caps_v, r1, r2, a1, a2):
+    """Contact totals of all (cable, hook, capsule, element) pairs: ``(span_forces (4, n_span, 2,
+    3), f_caps (4 hooks, 2 capsules, 2 ends, 3), normal (4,), penetration (n_pairs,))``.
+
+    Values: every pair, one flat vmapped batch. Derivative (``m`` not None): only the ``m`` pairs
+    of largest penetration carry tangents. Pairs out of contact (penetration <= 0) have zero force
+    and zero derivative (the onset ramp is C1 with zero slope at 0, the damping and the friction
+    scale with the spring force), so the JVP is exact while at most ``m`` pairs touch; the pick is
+    a choice of indices (no derivative). The ``penetration`` output is for counting and carries a
+    zero tangent.
+
+    Why: the tangent of the pair kernel costs far more than its values. Measured inside the ale
+    vector field with one state tangent (2-core AMD EPYC, JAX 0.10.2 CPU, float64; ``/tmp``
+    scripts, session 9), vector field value / JVP [us]: per cable with nested vmaps (session 7)
+    170 / 990; all 512 pairs as one flat batch 180 / 590; with this sparse JVP (m = 48) the values
+    are unchanged and the JVP drops further (see ``experiments/bench_contact_tangent.py``). XLA
+    recomputes the pair kernel's shared intermediates in each of the ~80 fusions of its JVP, so
+    the JVP's cost scales with the number of pairs that carry tangents."""
+    return _dense_pairs(law, hook_radius, cable_radius, caps_p, caps_v, r1, r2, a1, a2)
+
+
+@_contact_all_pairs.defjvp
+def _contact_all_pairs_jvp(m, primals, tangents):
+    out = _dense_pairs(*primals)
+    n_pairs = out[3].shape[0]
+    if m is None or m >= n_pairs:
+        _, tan = jax.jvp(lambda *p: _dense_pairs(*p)[:3], primals, tangents)
+    else:
+        _, picked = jax.lax.top_k(jax.lax.stop_gradient(out[3]), m)
+        _, tan = jax.jvp(lambda *p: _picked_pairs(picked, *p), primals, tangents)
+    return out, (*tan, jnp.zeros_like(out[3]))

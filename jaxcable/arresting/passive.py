@@ -236,6 +236,7 @@ class PassiveLandingScene(AbstractScene):
             stress_max_pa=aux["tension_max_N"] / self.cables_area(),
             counterweight_rise_m=aux["counterweight_rise_m"],
             hook_normal_force_N=aux["hook_normal_force_N"],
+            **({"contact_pairs_touching": aux["contact_pairs_touching"]} if "contact_pairs_touching" in aux else {}),
             centre_xy_m=o_pos[:2],
             energy=energy,
         )
