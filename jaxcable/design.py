@@ -199,6 +199,7 @@ import argparse
 import json
 import sys
 import time
+import warnings
 
 import diffrax
 import equinox as eqx
@@ -902,7 +903,14 @@ def _one_case(problem: DesignProblem, scene, adjoint):
     )
     smooth = smooth_landing_outputs(res.ts, res.probes, problem.widths)
     hard = {k: res.outputs[k] for k in CRITERIA}
-    return dict(smooth=smooth, hard=hard, status=res.status, num_steps=res.num_steps)
+    out = dict(smooth=smooth, hard=hard, status=res.status, num_steps=res.num_steps)
+    m = getattr(scene.cables, "contact_tangent_pairs", None)
+    if m is not None and "contact_pairs_touching" in res.probes:
+        # ale/full: the contact's derivative is exact while at most m pairs touch (checked on the
+        # saved samples; AleCables.contact_tangent_pairs)
+        touching = jnp.where(jnp.isfinite(res.ts), jax.lax.stop_gradient(res.probes["contact_pairs_touching"]), 0.0)
+        out["contact_tangent_exact"] = jnp.max(touching) <= m
+    return out
 
 
 def _one_two_phase_case(problem: DesignProblem, terminal, conditions, x, adjoint):
@@ -1190,6 +1198,14 @@ class _Rows:
 
     def add(self, j: float, grad_norm: float, aux):
         worst, success = self.record(aux) if self.record is not None else ([np.nan] * len(self.criteria_names), np.nan)
+        if "contact_tangent_exact" in aux and not bool(np.all(np.asarray(aux["contact_tangent_exact"]))):
+            warnings.warn(
+                "more hook-cable contact pairs touched than AleCables.contact_tangent_pairs carries "
+                "tangents for, in some case of this evaluation: its gradient misses those pairs; "
+                "rebuild the scenes with a larger contact_tangent_pairs (or None)",
+                RuntimeWarning,
+                stacklevel=2,
+            )
         self.cols["x"].append(np.asarray(aux["x"]))
         self.cols["objective"].append(j)
         self.cols["grad_norm"].append(grad_norm)

@@ -59,3 +59,27 @@ def test_ale_gradient_matches_central_differences():
 def test_ale_problem_without_scenes_is_refused(problem):
     with pytest.raises(ValueError, match="host"):
         DesignProblem(space=problem.space, captures=problem.captures, buffer=problem.buffer, layout=problem.layout, fidelity="ale")
+
+
+def test_ale_cases_report_whether_the_contact_derivative_is_exact(problem):
+    """Each ale case reports whether at most ``contact_tangent_pairs`` contact pairs touched (the
+    sparse contact derivative is exact then); the optimisers' history warns when one did not."""
+    import dataclasses
+    import warnings
+
+    from jaxcable.design import _Rows, _record
+
+    x = paper_start(problem)
+    u = problem.space.to_unconstrained(x)
+    _, aux = objective_value(problem, u)
+    assert np.all(np.asarray(aux["contact_tangent_exact"]))  # 48 carried, 8-16 touch
+    cables = dataclasses.replace(problem.scenes.cables, contact_tangent_pairs=1)
+    few = dataclasses.replace(problem, scenes=dataclasses.replace(problem.scenes, cables=cables))
+    _, aux_few = objective_value(few, u)
+    assert not np.any(np.asarray(aux_few["contact_tangent_exact"]))
+    rows = _Rows(_record(problem), problem.criteria_names)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        rows.add(1.0, 0.0, aux)  # exact: no warning
+    with pytest.warns(RuntimeWarning, match="contact_tangent_pairs"):
+        rows.add(1.0, 0.0, aux_few)
