@@ -24,21 +24,16 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
-import sys
 import time
-from pathlib import Path
 
+import _report
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 import jaxcable
 from jaxcable.arresting.passive import passive_landing_scene
-from jaxcable.provenance import machine_info
 from jaxcable.simulate import simulate
-
-ROOT = Path(__file__).resolve().parent.parent
 VARIANTS = (None, 48, 24)
 
 
@@ -169,19 +164,11 @@ def main():
     p.add_argument("--out", default=None, help="output folder (default experiments/results)")
     args = p.parse_args()
     jaxcable.enable_x64()
-    out = Path(args.out) if args.out else ROOT / "experiments" / "results"
-    out.mkdir(parents=True, exist_ok=True)
-    info = machine_info()
-    t0 = time.perf_counter()
-    data = dict(machine=info, load_start=info["load_average_1_5_15_min"], date=time.strftime("%Y-%m-%d %H:%M:%S"),
-                command="python experiments/bench_contact_tangent.py " + " ".join(sys.argv[1:]))  # fmt: skip
+    out = _report.output_dir(args.out)
+    data = _report.start()
     data["vf"] = vector_field_section(args.repeats)
     data["design"] = design_section(args.repeats, args.t_end)
-    data["load_end"] = machine_info()["load_average_1_5_15_min"]
-    data["wall_s"] = time.perf_counter() - t0
-    (out / "bench_contact_tangent.json").write_text(json.dumps(data, indent=1))
-    write_md(data, out / "bench_contact_tangent.md")
-    print(f"wrote {out / 'bench_contact_tangent.json'}, {out / 'bench_contact_tangent.md'}")
+    _report.finish(data, out, "bench_contact_tangent", write_md)
 
 
 if __name__ == "__main__":

@@ -27,12 +27,10 @@ Writes ``experiments/results/bench_imex_brake.{json,md}``. Usage:
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 import time
-from pathlib import Path
 from typing import Any
 
+import _report
 import diffrax
 import equinox as eqx
 import jax
@@ -43,9 +41,6 @@ import optimistix as optx
 
 import jaxcable
 from jaxcable.design import _scene, design_problem, paper_start
-from jaxcable.provenance import machine_info
-
-ROOT = Path(__file__).resolve().parent.parent
 
 
 class MaskedDiagonal(lx.AbstractLinearSolver):
@@ -218,19 +213,11 @@ def main():
     p.add_argument("--out", default=None, help="output folder (default experiments/results)")
     args = p.parse_args()
     jaxcable.enable_x64()
-    out = Path(args.out) if args.out else ROOT / "experiments" / "results"
-    out.mkdir(parents=True, exist_ok=True)
-    info = machine_info()
-    t0 = time.perf_counter()
-    data = dict(machine=info, load_start=info["load_average_1_5_15_min"], date=time.strftime("%Y-%m-%d %H:%M:%S"),
-                command="python experiments/bench_imex_brake.py " + " ".join(sys.argv[1:]), runs=[])  # fmt: skip
+    out = _report.output_dir(args.out)
+    data = _report.start(runs=[])
     for n in args.n:
         data["runs"].append(run(n, args.repeats, args.t_end))
-    data["load_end"] = machine_info()["load_average_1_5_15_min"]
-    data["wall_s"] = time.perf_counter() - t0
-    (out / "bench_imex_brake.json").write_text(json.dumps(data, indent=1))
-    write_md(data, out / "bench_imex_brake.md")
-    print(f"wrote {out / 'bench_imex_brake.json'}, {out / 'bench_imex_brake.md'}")
+    _report.finish(data, out, "bench_imex_brake", write_md)
 
 
 if __name__ == "__main__":

@@ -23,11 +23,9 @@ Writes ``experiments/results/bench_probes.{json,md}``. Usage:
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 import time
-from pathlib import Path
 
+import _report
 import diffrax
 import equinox as eqx
 import jax
@@ -39,8 +37,6 @@ from jaxcable.arresting.passive import smooth_landing_outputs
 from jaxcable.design import REVERSE_CHECKPOINTS, _scene, design_problem, paper_start
 from jaxcable.provenance import machine_info
 from jaxcable.simulate import simulate
-
-ROOT = Path(__file__).resolve().parent.parent
 
 
 def parse_args():
@@ -139,19 +135,11 @@ def write_md(data, path):
 def main():
     args = parse_args()
     jaxcable.enable_x64()
-    out = Path(args.out) if args.out else ROOT / "experiments" / "results"
-    out.mkdir(parents=True, exist_ok=True)
-    info = machine_info()
-    t0 = time.perf_counter()
-    data = dict(machine=info, load_start=info["load_average_1_5_15_min"], date=time.strftime("%Y-%m-%d %H:%M:%S"),
-                command="python experiments/bench_probes.py " + " ".join(sys.argv[1:]), runs=[])  # fmt: skip
+    out = _report.output_dir(args.out)
+    data = _report.start(runs=[])
     for n in args.n:
         data["runs"].append(run(n, args.repeats))
-    data["load_end"] = machine_info()["load_average_1_5_15_min"]
-    data["wall_s"] = time.perf_counter() - t0
-    (out / "bench_probes.json").write_text(json.dumps(data, indent=1))
-    write_md(data, out / "bench_probes.md")
-    print(f"wrote {out / 'bench_probes.json'}, {out / 'bench_probes.md'}")
+    _report.finish(data, out, "bench_probes", write_md)
 
 
 if __name__ == "__main__":

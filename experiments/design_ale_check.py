@@ -19,10 +19,9 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 import time
-from pathlib import Path
 
+import _report
 import numpy as np
 import scipy.optimize
 
@@ -30,9 +29,7 @@ import jaxcable
 from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.landing import run_landing
 from jaxcable.design import DesignSpace, profile_names
-from jaxcable.provenance import machine_info
 
-ROOT = Path(__file__).resolve().parent.parent
 LIMITS = {"z_max_m": 10.0, "a_max_g": 5.0, "sigma_max_mpa": 800.0}
 
 
@@ -127,8 +124,7 @@ def write_md(data, path):
 def main():
     args = parse_args()
     jaxcable.enable_x64()
-    out = Path(args.out) if args.out else ROOT / "experiments" / "results"
-    out.mkdir(parents=True, exist_ok=True)
+    out = _report.output_dir(args.out)
     if args.replot:
         data = json.loads((out / "design_ale_check.json").read_text())
         if args.note:
@@ -139,10 +135,7 @@ def main():
     names = ["m_w", "F_f"] + (list(profile_names(args.knots)) if args.knots else [])
     space = DesignSpace.from_names(names)
     x0 = np.array([920.0, 3.13e5] + [1.0] * args.knots)
-    info = machine_info()
-    t0 = time.perf_counter()
-    data = dict(machine=info, date=time.strftime("%Y-%m-%d %H:%M:%S"), t_end_s=args.t_end, evals=args.evals,
-                variables=names, command="python experiments/design_ale_check.py " + " ".join(sys.argv[1:]))  # fmt: skip
+    data = _report.start(t_end_s=args.t_end, evals=args.evals, variables=names)
     data["searches"] = [search(level, space, x0, args.evals, args.t_end) for level in ("ale", "rigid")]
     designs = {"table1": space.as_dict(x0)} | {f"best_at_{s['level']}": s["best"]["x"] for s in data["searches"]}
     data["cross"] = {}
@@ -150,10 +143,7 @@ def main():
         x = np.array([d[n] for n in names])
         data["cross"][name] = {level: land(level, space, x, args.t_end) for level in ("rigid", "ale", "full")}
         print(name, {k: round(v["worst"], 4) for k, v in data["cross"][name].items()}, flush=True)
-    data["wall_s"] = time.perf_counter() - t0
-    (out / "design_ale_check.json").write_text(json.dumps(data, indent=1))
-    write_md(data, out / "design_ale_check.md")
-    print(f"wrote {out / 'design_ale_check.json'}, {out / 'design_ale_check.md'}")
+    _report.finish(data, out, "design_ale_check", write_md)
 
 
 if __name__ == "__main__":

@@ -19,24 +19,17 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
-import sys
 import time
-from pathlib import Path
 
+import _report
 import jax
 import jax.numpy as jnp
 import numpy as np
+from design_ale_check import LIMITS, land
 
 import jaxcable
-from jaxcable.arresting.buffer import BufferDevice
-from jaxcable.arresting.landing import run_landing
 from jaxcable.arresting.layout import CaptureState
 from jaxcable.design import ObjectiveWeights, _host_built_scenes, design_problem, lbfgs
-from jaxcable.provenance import machine_info
-
-ROOT = Path(__file__).resolve().parent.parent
-LIMITS = {"z_max_m": 10.0, "a_max_g": 5.0, "sigma_max_mpa": 800.0}
 
 
 def design_case_problem(knots, t_end, fidelity="ale"):
@@ -51,20 +44,6 @@ def design_case_problem(knots, t_end, fidelity="ale"):
     return dataclasses.replace(p, captures=captures, scenes=scenes, fidelity=fidelity, rtol=rtol, atol=rtol)
 
 
-def buffer_of(space, x):
-    d = space.as_dict(x)
-    profile = [d[n] for n in space.names if n.startswith("b")]
-    return BufferDevice(counterweight_mass_kg=d["m_w"], brake_force_N=d["F_f"], brake_profile=profile or None)
-
-
-def land(level, space, x, t_end):
-    r = run_landing(level, buffer=buffer_of(space, x), t_end_s=t_end)
-    out = {k: float(r.outputs[k]) for k in LIMITS}
-    out["worst"] = max(out[k] / v for k, v in LIMITS.items())
-    out["status"] = r.solver_status
-    return out
-
-
 def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--knots", type=int, default=4, help="brake-profile knots K (0: constant brake)")
@@ -73,9 +52,8 @@ def main():
     p.add_argument("--out", default=None, help="output folder (default experiments/results)")
     args = p.parse_args()
     jaxcable.enable_x64()
-    out_dir = Path(args.out) if args.out else ROOT / "experiments" / "results"
-    out_dir.mkdir(parents=True, exist_ok=True)
-    info = machine_info()
+    out_dir = _report.output_dir(args.out)
+    data = _report.start(knots=args.knots, t_end_s=args.t_end)
     t_start = time.perf_counter()
     problem = design_case_problem(args.knots, args.t_end)
     space = problem.space
@@ -93,18 +71,12 @@ def main():
     x_best = np.asarray(history.x[best])
     landed = {level: land(level, space, x_best, args.t_end) for level in ("rigid", "ale", "full")}
     start = {level: land(level, space, x0, args.t_end) for level in ("ale",)}
-    data = dict(
-        machine=info, date=time.strftime("%Y-%m-%d %H:%M:%S"),
-        command="python experiments/design_ale_gradient.py " + " ".join(sys.argv[1:]),
-        knots=args.knots, t_end_s=args.t_end, evaluations=len(history.objective),
-        objective=history.objective.tolist(), wall_s_history=history.wall_s.tolist(),
-        accepted=rows, best_index=best, best_design=space.as_dict(x_best), best_objective=float(history.objective[best]),
-        start_design=space.as_dict(x0), start_landed=start, landed=landed,
-        wall_s=time.perf_counter() - t_start, load_end=machine_info()["load_average_1_5_15_min"],
+    data.update(
+        evaluations=len(history.objective), objective=history.objective.tolist(),
+        wall_s_history=history.wall_s.tolist(), accepted=rows, best_index=best, best_design=space.as_dict(x_best),
+        best_objective=float(history.objective[best]), start_design=space.as_dict(x0), start_landed=start, landed=landed,
     )  # fmt: skip
-    (out_dir / "design_ale_gradient.json").write_text(json.dumps(data, indent=1, default=float))
-    write_md(data, out_dir / "design_ale_gradient.md")
-    print(f"wrote {out_dir / 'design_ale_gradient.json'}, {out_dir / 'design_ale_gradient.md'}")
+    _report.finish(data, out_dir, "design_ale_gradient", write_md)
 
 
 def write_md(data, path):
