@@ -18,6 +18,10 @@ Sections (all at the rigid level, Table 8 captures of scenario I, scrambled Halt
     of each to reach adam's final objective from the paper design. Best designs re-checked on an
     independent batch (seed 1, ``--check-n`` cases).
 
+(6) ``chunk``: ``DesignProblem.chunk`` "auto" (on the CPU: the batch as ``lax.map`` over vmapped
+    chunks, 32 cases for the forward call and reverse mode, 16 for forward mode) against None (one
+    vmap over the whole batch), for batch sizes ``--chunk-n`` (32 64): forward, forward mode and
+    reverse mode, all timed in the same rounds; the gradients of the two compared.
 (5) ``two_phase``: m_w, F_f and the PD gain a_p on the two-phase objective (``phase="full"``:
     tracking, capture event, passive phase at level rigid) over ``--full-n`` Table 3 cases of
     ``--full-scenario``: adam (``--full-steps``) from the paper design (Table 4's a_p) and from a
@@ -61,7 +65,7 @@ from jaxcable.arresting.passive import SmoothingWidths
 from jaxcable.provenance import machine_info
 
 ROOT = Path(__file__).resolve().parent.parent
-SECTIONS = ("cost", "bias", "landscape", "optimise", "two_phase")
+SECTIONS = ("cost", "bias", "landscape", "optimise", "two_phase", "chunk")
 WEAK_PENALTY = (10.0, 10.0, 10.0)
 FAST_LR = 0.5
 POOR_STARTS = {
@@ -75,9 +79,10 @@ POOR_STARTS = {
 def parse_args():
     p = argparse.ArgumentParser(description="design optimisation benchmark")
     p.add_argument("--quick", action="store_true")
-    p.add_argument("--sections", nargs="+", default=[s for s in SECTIONS if s != "two_phase"], choices=SECTIONS)
+    p.add_argument("--sections", nargs="+", default=[s for s in SECTIONS if s not in ("two_phase", "chunk")], choices=SECTIONS)
     p.add_argument("--cost-n", nargs="+", type=int, default=[8, 32])
     p.add_argument("--checkpoints", type=int, default=64)
+    p.add_argument("--chunk-n", nargs="+", type=int, default=[32, 64], help="chunk: batch sizes")
     p.add_argument("--repeats", type=int, default=5)
     p.add_argument("--bias-n", type=int, default=64)
     p.add_argument("--opt-n", type=int, default=16)
@@ -176,6 +181,35 @@ def section_cost(args):
     for a in acc:
         a["rel_error_vs_1e-10"] = float(np.max(np.abs(np.asarray(a["grad"]) - gref) / np.abs(gref)))
     return dict(rows=rows, tolerance=dict(n=n, rows=acc))
+
+
+def section_chunk(args):
+    rows = []
+    for n in args.chunk_n:
+        calls, problems = {}, {}
+        for chunk in (None, "auto"):
+            for mode in ("value", "forward", "reverse"):
+                pr = design_problem("m_w,F_f", n=n, t_end_s=args.t_end, gradient="forward" if mode == "value" else mode, chunk=chunk)
+                u0 = pr.space.to_unconstrained(paper_start(pr))
+                fn = objective_value if mode == "value" else objective_and_grad
+                calls[(chunk, mode)] = (lambda f_, p_, u_: (lambda: f_(p_, u_)))(fn, pr, u0)
+        outs = {k: jax.block_until_ready(f()) for k, f in calls.items()}
+        times = {k: [] for k in calls}
+        for _ in range(args.repeats):
+            for k, f in calls.items():
+                t = time.perf_counter()
+                jax.block_until_ready(f())
+                times[k].append(time.perf_counter() - t)
+        best = {k: min(v) for k, v in times.items()}
+        row = dict(n=n, seconds={f"{c}/{m}": best[(c, m)] for (c, m) in best})
+        for mode in ("forward", "reverse"):
+            g0, g1 = np.asarray(outs[(None, mode)][1]), np.asarray(outs[("auto", mode)][1])
+            row[f"{mode}_max_rel_diff"] = float(np.max(np.abs(g1 - g0) / np.abs(g0)))
+        fwd_best = min(best[(None, "value")], best[("auto", "value")])
+        row["ratio_to_best_forward"] = {f"{c}/{m}": best[(c, m)] / fwd_best for (c, m) in best if m != "value"}
+        rows.append(row)
+        print(f"chunk n {n}: " + ", ".join(f"{k} {v:.3f} s" for k, v in row["seconds"].items()), flush=True)
+    return dict(rows=rows, load_average=machine_info()["load_average_1_5_15_min"])
 
 
 def section_bias(args):
@@ -404,6 +438,24 @@ def write_md(data, path):
         f"squared penalties {data.get('optimise', {}).get('weights', {}).get('penalty', '')} for (z, a, σ)).",
         "",
     ]
+    if "chunk" in data:
+        L += [
+            "## Batch chunks (`DesignProblem.chunk`)",
+            "",
+            _provenance(data["chunk"]),
+            '"auto" on the CPU runs the batch as `lax.map` over vmapped chunks (32 cases forward and reverse mode, 16 forward mode); '
+            "None is one vmap over the whole batch. Every call timed in the same rounds, best kept; ratio = gradient / the faster forward call.",
+            "",
+            "| n | chunk | forward [s] | forward mode [s] | ratio | reverse mode [s] | ratio | gradient diff. FM / reverse (relative) |",
+            "|---:|---|---:|---:|---:|---:|---:|---|",
+        ]
+        for r in data["chunk"]["rows"]:
+            for c in ("None", "auto"):
+                sec, rat = r["seconds"], r["ratio_to_best_forward"]
+                diff = f"{r['forward_max_rel_diff']:.1e} / {r['reverse_max_rel_diff']:.1e}" if c == "auto" else ""
+                L.append(f"| {r['n']} | {c} | {sec[c + '/value']:.3f} | {sec[c + '/forward']:.3f} | {rat[c + '/forward']:.2f} | "
+                         f"{sec[c + '/reverse']:.3f} | {rat[c + '/reverse']:.2f} | {diff} |")  # fmt: skip
+        L.append("")
     if "cost" in data:
         c = data["cost"]
         L += [
@@ -630,7 +682,7 @@ def main():
         command="python experiments/bench_design.py " + " ".join(a for a in __import__("sys").argv[1:]),
     )
     t0 = time.perf_counter()
-    fns = dict(cost=section_cost, bias=section_bias, landscape=section_landscape, optimise=section_optimise, two_phase=section_two_phase)
+    fns = dict(cost=section_cost, bias=section_bias, landscape=section_landscape, optimise=section_optimise, two_phase=section_two_phase, chunk=section_chunk)
     for s in args.sections:
         ts = time.perf_counter()
         load0 = machine_info()["load_average_1_5_15_min"]
