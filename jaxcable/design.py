@@ -1523,6 +1523,17 @@ def _print_report(title, rep):
     print(f"  success rate (all criteria, hard) {c['success_rate']:.1%}; solver failures {c['solver_failures']}")
 
 
+def _parse_chunk(text: str):
+    """``--chunk``: ``auto``, ``none`` or a positive integer (checked by :class:`DesignProblem`)."""
+    low = text.strip().lower()
+    if low in ("auto", "none"):
+        return None if low == "none" else "auto"
+    try:
+        return int(low)
+    except ValueError:
+        raise ValueError(f"--chunk must be auto, none or a positive integer, got {text!r}") from None
+
+
 def design_main(argv: list[str] | None = None) -> int:
     """``jaxcable design``: optimise the buffer design over a QMC batch and report before/after.
 
@@ -1553,6 +1564,7 @@ def design_main(argv: list[str] | None = None) -> int:
     parser.add_argument("--bounds", default="", help="name=lower:upper,... overriding the default bounds")
     parser.add_argument("--rtol", type=float, default=None, help="relative = absolute solver tolerance (default per level: rigid 1e-6, ale/full 1e-5)")
     parser.add_argument("--gradient", choices=list(GRADIENT_MODES), default="forward", help="forward or reverse mode (default forward)")
+    parser.add_argument("--chunk", default="auto", help="cases per vmapped call inside the objective: auto (on the CPU 32, 16 for forward-mode gradients; elsewhere the whole batch), none (the whole batch) or a positive integer (default auto)")
     parser.add_argument("--landing-speed", type=float, default=None, help="--scene throw: landing-speed limit [m/s] (default 60)")
     parser.add_argument("--max-tension", type=float, default=None, help="--scene throw: limit of the rope's pull on the rocket [N] (default 4000)")
     parser.add_argument("--segment-length", type=float, default=10.0, help="--scene throw: rope segment length [m] (default 10)")
@@ -1579,6 +1591,7 @@ def design_main(argv: list[str] | None = None) -> int:
             bounds=_parse_values(args.bounds, "--bounds"),
             t_end_s=args.t_end,
             gradient=args.gradient,
+            chunk=_parse_chunk(args.chunk),
             cable_damping_s=args.cable_damping,
             weights=ObjectiveWeights(
                 margin=args.margin, tail_criterion=args.tail_criterion, alpha=args.alpha, expected=args.expected

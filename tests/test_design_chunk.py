@@ -51,3 +51,11 @@ def test_auto_chunk_sizes():
 def test_bad_chunk_is_refused(bad):
     with pytest.raises(ValueError, match="chunk"):
         design_problem("m_w,F_f", n=2, t_end_s=0.2, chunk=bad)
+
+
+@pytest.mark.parametrize("text", ["0", "-3", "lots"])
+def test_cli_bad_chunk_is_refused(text, capsys):
+    from jaxcable.design import design_main
+
+    assert design_main(["--n", "2", "--steps", "0", "--chunk", text]) == 2
+    assert "chunk" in capsys.readouterr().err
