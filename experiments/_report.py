@@ -47,6 +47,27 @@ def header(data: dict) -> list:
     ]
 
 
+def time_rounds(calls: dict, repeats: int):
+    """Call each zero-argument function of ``calls`` once (which compiles it), then all of them in
+    turn, round by round (``repeats`` rounds), so that a change of the machine's load hits every one
+    alike. Returns ``(outs, first_s, best_s)``: each key's first output, the seconds of its first
+    call and its best seconds over the rounds."""
+    import jax
+
+    outs, first = {}, {}
+    for k, fn in calls.items():
+        t = time.perf_counter()
+        outs[k] = jax.block_until_ready(fn())
+        first[k] = time.perf_counter() - t
+    best = {k: float("inf") for k in calls}
+    for _ in range(repeats):
+        for k, fn in calls.items():
+            t = time.perf_counter()
+            jax.block_until_ready(fn())
+            best[k] = min(best[k], time.perf_counter() - t)
+    return outs, first, best
+
+
 def finish(data: dict, out: Path, stem: str, write_md) -> None:
     """Add the end load and the wall time, write ``stem``.json and ``write_md(data, stem.md)``."""
     data["load_end"] = machine_info()["load_average_1_5_15_min"]

@@ -44,6 +44,7 @@ import json
 import time
 from pathlib import Path
 
+import _report
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -193,14 +194,7 @@ def section_chunk(args):
                 u0 = pr.space.to_unconstrained(paper_start(pr))
                 fn = objective_value if mode == "value" else objective_and_grad
                 calls[(chunk, mode)] = (lambda f_, p_, u_: (lambda: f_(p_, u_)))(fn, pr, u0)
-        outs = {k: jax.block_until_ready(f()) for k, f in calls.items()}
-        times = {k: [] for k in calls}
-        for _ in range(args.repeats):
-            for k, f in calls.items():
-                t = time.perf_counter()
-                jax.block_until_ready(f())
-                times[k].append(time.perf_counter() - t)
-        best = {k: min(v) for k, v in times.items()}
+        outs, _, best = _report.time_rounds(calls, args.repeats)
         row = dict(n=n, seconds={f"{c}/{m}": best[(c, m)] for (c, m) in best})
         for mode in ("forward", "reverse"):
             g0, g1 = np.asarray(outs[(None, mode)][1]), np.asarray(outs[("auto", mode)][1])

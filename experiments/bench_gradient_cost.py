@@ -29,8 +29,6 @@ Writes ``experiments/results/bench_gradient_cost.{json,md}``. Usage:
 from __future__ import annotations
 
 import argparse
-import time
-
 import _report
 import diffrax
 import equinox as eqx
@@ -52,18 +50,6 @@ from jaxcable.design import (
     paper_start,
 )
 from jaxcable.simulate import make_solver, simulate
-
-
-def time_calls(calls, repeats):
-    """Compile each call, then time them round by round; best seconds per call."""
-    outs = {k: jax.block_until_ready(fn()) for k, fn in calls.items()}
-    best = {k: np.inf for k in calls}
-    for _ in range(repeats):
-        for k, fn in calls.items():
-            t = time.perf_counter()
-            jax.block_until_ready(fn())
-            best[k] = min(best[k], time.perf_counter() - t)
-    return outs, best
 
 
 # ---- 1. diffrax's loop on a trivial vector field ----------------------------------------------
@@ -91,7 +77,7 @@ def loop_section(repeats, batches):
                 return jnp.sum(jax.vmap(lambda p: solve(p * q_[0] * q_[1], n_save))(P))
 
             fwd, fm = jax.jit(obj), jax.jit(jax.jacfwd(obj))
-            _, best = time_calls(dict(forward=lambda: fwd(q), forward_mode=lambda: fm(q)), repeats)
+            _, _, best = _report.time_rounds(dict(forward=lambda: fwd(q), forward_mode=lambda: fm(q)), repeats)
             rows.append(dict(batch=batch, n_save=n_save, forward_s=best["forward"], forward_mode_s=best["forward_mode"],
                              ratio=best["forward_mode"] / best["forward"]))  # fmt: skip
             print(f"loop batch {batch} saves {n_save}: ratio {rows[-1]['ratio']:.2f}", flush=True)
@@ -153,7 +139,7 @@ def field_section(repeats, n, evaluations=200):
 
         v, w, o = looped(value), looped(with_tangents), looped(tangents_outer)
         calls = dict(value=lambda: v(dyn, states, tangents), jvp=lambda: w(dyn, states, tangents), outer=lambda: o(dyn, states, tangents))
-        _, best = time_calls(calls, repeats)
+        _, _, best = _report.time_rounds(calls, repeats)
         rows.append(dict(part=name, value_us=best["value"] / evaluations * 1e6, value_and_2_tangents_us=best["jvp"] / evaluations * 1e6,
                          ratio=best["jvp"] / best["value"], tangent_axis_outer_us=best["outer"] / evaluations * 1e6,
                          tangent_axis_outer_ratio=best["outer"] / best["value"]))  # fmt: skip
@@ -255,7 +241,7 @@ def design_section(repeats, n):
         forward=lambda: objective_value(base, u0), forward_mode=lambda: objective_and_grad(fm, u0),
         augmented=lambda: aug(base, u0), augmented_dummy_tangents=lambda: aug(base, u0, True),
     )  # fmt: skip
-    outs, best = time_calls(calls, repeats)
+    outs, _, best = _report.time_rounds(calls, repeats)
     g_fm, g_aug = np.asarray(outs["forward_mode"][1]), np.asarray(outs["augmented"][1])
     row = dict(n=n, seconds=best, ratio={k: v / best["forward"] for k, v in best.items()},
                grad_forward_mode=g_fm.tolist(), grad_augmented=g_aug.tolist(),
