@@ -651,8 +651,9 @@ class DesignProblem(eqx.Module):
     checkpoints: int | None = eqx.field(static=True, default=None)
     """checkpoints of RecursiveCheckpointAdjoint in reverse mode (None: ``REVERSE_CHECKPOINTS``)"""
     chunk: int | str | None = eqx.field(static=True, default="auto")
-    """cases per vmapped call inside the objective: the batch runs as ``lax.map`` over chunks of
-    this many cases (the last one padded with copies of the last case, whose outputs are dropped).
+    """most cases per vmapped call inside the objective: the batch runs as ``lax.map`` over as few
+    equal chunks of at most this many cases as that allows (padded with copies of the last case,
+    whose outputs are dropped, to less than one case per chunk).
     ``"auto"``: on the CPU ``AUTO_CHUNK`` (forward value and reverse mode 32, forward mode 16; a
     vmapped solve's cost per case grows with the batch beyond these on the CPU: at n = 64 the
     forward call runs 1.28x, the forward-mode gradient 1.11x and reverse mode 1.17x faster; ``python
@@ -982,11 +983,14 @@ def _chunk_size(problem: DesignProblem, adjoint) -> int | None:
 
 
 def _chunked_vmap(fn, inputs, n: int, chunk: int | None):
-    """``jax.vmap(fn)(*inputs)`` over the leading axis n, run as ``lax.map`` over chunks of
-    ``chunk`` cases when ``chunk < n`` (the last chunk padded with copies of the last case)."""
+    """``jax.vmap(fn)(*inputs)`` over the leading axis n, run as ``lax.map`` over chunks of at most
+    ``chunk`` cases when ``chunk < n``: as few chunks as that allows, of equal size, so that the
+    padding (copies of the last case, outputs dropped) is less than one case per chunk (n = 20 in
+    chunks of at most 16: two of 10, not 16 + 4 padded to 32)."""
     if chunk is None or chunk >= n:
         return jax.vmap(fn)(*inputs)
     n_chunks = -(-n // chunk)
+    chunk = -(-n // n_chunks)
     pad = n_chunks * chunk - n
 
     def split(v):
