@@ -443,6 +443,46 @@ def test_two_body_axial_oscillation():
     assert np.max(np.abs(energy / energy[0] - 1.0)) < 1e-6
 
 
+def test_free_body_path_equals_kane_path():
+    """Without hinges ``accelerations`` takes a Newton-Euler shortcut (block-diagonal constant M);
+    it must give the general Kane path's accelerations and their tangents, for two free bodies on a
+    beam with point loads, body torques, gravity, a generalised force and non-unit quaternions."""
+    system = mb.MultibodySystem(
+        body_mass_kg=[3000.0, 1000.0],
+        body_inertia_kg_m2=[[[1e4, 200.0, -50.0], [200.0, 2e4, 30.0], [-50.0, 30.0, 3e3]], np.diag([5e3, 4e3, 1e3])],
+    )
+    beams = mb.MasslessBeams(
+        body_a=(0,), body_b=(1,), attach_a_m=[[0.0, 0.0, 0.5]], attach_b_m=[[0.0, 0.0, -0.5]],
+        length_m=[7.0], EA_N=[2.63e9], EJ_N_m2=[5.24e9], GJ_N_m2=[4e9], damping_s=[1e-3],
+    )  # fmt: skip
+    k = jax.random.split(jax.random.PRNGKey(3), 8)
+    state = mb.MultibodyState(
+        r=jnp.array([[0.0, 0.0, 0.0], [0.0, 0.0, 8.0]]) + 1e-3 * jax.random.normal(k[0], (2, 3)),
+        quat=jnp.array([[1.0, 0.0, 0.0, 0.0]] * 2) * 1.02 + 1e-3 * jax.random.normal(k[1], (2, 4)),
+        v=jax.random.normal(k[2], (2, 3)),
+        omega_body=jax.random.normal(k[3], (2, 3)),
+        hinge_angle=jnp.zeros(0),
+        hinge_rate=jnp.zeros(0),
+    )
+    loads = (((0, 1), jnp.ones((2, 3, 3)), 1e4 * jax.random.normal(k[4], (2, 3, 3))),)
+    extra = dict(body_torques_world=1e3 * jax.random.normal(k[5], (2, 3)), gravity=GRAVITY, beams=beams,
+                 generalized_force=1e3 * jax.random.normal(k[6], (12,)))  # fmt: skip
+
+    def args(s):
+        return (system, s, loads, extra["body_torques_world"], None, GRAVITY, beams, extra["generalized_force"])
+
+    tangent = jax.tree.map(lambda x: jax.random.normal(k[7], x.shape), state)
+    fast = jax.jvp(lambda s: mb._free_body_accelerations(*args(s)), (state,), (tangent,))
+    kane = jax.jvp(lambda s: mb._kane_accelerations(*args(s)), (state,), (tangent,))
+    public = mb.accelerations(system, state, point_forces=loads, **extra)
+    for a, b, c in zip(jax.tree.leaves(fast), jax.tree.leaves(kane), jax.tree.leaves((public, fast[1]))):
+        if np.size(a) == 0:  # the hinge rows
+            continue
+        scale = np.max(np.abs(b)) + 1e-300
+        assert np.max(np.abs(np.asarray(a) - np.asarray(b))) < 1e-12 * scale
+        np.testing.assert_array_equal(c, a)
+
+
 # ---------------------------------------------------------------------------------------------
 # the landing rocket
 # ---------------------------------------------------------------------------------------------
