@@ -75,9 +75,11 @@ def throat_weights(hinge, tip, barb_end, clearance):
 
 def _engaged_throats(hooks: HookPoints, weights):
     """Throat positions/velocities of the hook engaged by each cable: (4, 3)."""
-    order = np.array(HOOK_OF_CABLE)
-    pos = jnp.einsum("j,kjd->kd", weights, hooks.positions[order])
-    vel = jnp.einsum("j,kjd->kd", weights, hooks.velocities[order])
+    w = weights[None, :, None]
+    # static row picks and a broadcast-multiply-sum, not a gather and an einsum: XLA fuses these with
+    # their neighbours, where the einsum was a separate small dot kernel (and two with a tangent)
+    pos = jnp.sum(w * jnp.stack([hooks.positions[h] for h in HOOK_OF_CABLE]), axis=1)
+    vel = jnp.sum(w * jnp.stack([hooks.velocities[h] for h in HOOK_OF_CABLE]), axis=1)
     return pos, vel
 
 

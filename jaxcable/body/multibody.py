@@ -79,6 +79,8 @@ stiffness-proportional (Rayleigh) damping ``-(de/du)^T beta K e_dot`` dissipates
 ``beta e_dot^T K e_dot >= 0``.
 """
 
+import functools
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -611,13 +613,17 @@ def _inertia_wrenches(system, poses, u):
 
 
 def _sum_into_bodies(idx, values, n_bodies):
-    """``out[n] = sum of values[b] over b with idx[b] == n`` for a static index ``idx`` (B,), as a
-    dense product with a constant 0/1 matrix: the same sums as ``zeros.at[idx].add(values)``,
-    without a scatter (XLA's CPU scatter is a separate, unfused kernel, and so is its tangent; this
-    runs ~10^5 times per landing)."""
-    onehot = np.zeros((n_bodies, len(idx)))
-    onehot[np.asarray(idx), np.arange(len(idx))] = 1.0
-    return jnp.einsum("nb,bd->nd", jnp.asarray(onehot, values.dtype), values)
+    """``out[n] = sum of values[b] over b with idx[b] == n`` for a static index ``idx`` (B,), as
+    static row picks and adds: the same sums as ``zeros.at[idx].add(values)`` without a scatter
+    (XLA's CPU scatter is a separate, unfused kernel, and so is its tangent; this runs ~10^5 times
+    per landing) and without the constant 0/1 matrix product used before (a small ``dot`` kernel
+    of its own, two with a tangent)."""
+    idx = [int(i) for i in np.asarray(idx)]
+    rows = []
+    for n in range(n_bodies):
+        picked = [values[b] for b, i in enumerate(idx) if i == n]
+        rows.append(functools.reduce(jnp.add, picked) if picked else jnp.zeros_like(values[0]))
+    return jnp.stack(rows)
 
 
 def _load_wrenches(system, poses, point_forces, body_torques_world, gravity):
@@ -695,6 +701,11 @@ def generalized_force_from_energy(system, state, energy_fn):
     return -Q
 
 
+_NEWTON_EULER_WITHOUT_HINGES = True
+"""Read when :func:`accelerations` is traced: ``False`` sends hinge-free systems through the general
+Kane path too (``experiments/bench_free_body.py`` compares the two; not a user setting)."""
+
+
 def _free_body_accelerations(system, state, point_forces, body_torques_world, hinge_torques, gravity, beams, generalized_force):
     """:func:`accelerations` of a system without hinges: Newton-Euler body by body.
 
@@ -752,7 +763,9 @@ def accelerations(
     ``n_u = 6 nb + nh`` (34 for the 5-body rocket with four hooks).
     """
     args = (system, state, point_forces, body_torques_world, hinge_torques, gravity, beams, generalized_force)
-    return _free_body_accelerations(*args) if system.n_hinges == 0 else _kane_accelerations(*args)
+    if system.n_hinges == 0 and _NEWTON_EULER_WITHOUT_HINGES:
+        return _free_body_accelerations(*args)
+    return _kane_accelerations(*args)
 
 
 def _kane_accelerations(system, state, point_forces, body_torques_world, hinge_torques, gravity, beams, generalized_force):
