@@ -42,6 +42,12 @@ Glossary (paper's symbols, eqs 35-41)
 Eq 41 (the prismatic constraint of the sliders and counterweights) is not needed by the rocket and
 is not implemented here.
 
+Systems without hinges (the rigid and ale levels' rocket, hooks welded) skip the Kane machinery:
+every speed is a body's own ``v`` or ``omega_body``, ``M = diag(m I, J)`` is constant, and the
+equations are Newton-Euler body by body (:func:`_free_body_accelerations`; same values and tangents
+as the general path to round-off, tested). It halves the XLA kernels of the rocket's derivative,
+which is what a batched design gradient pays for (``experiments/bench_free_body.py``).
+
 Body indices: free bodies are ``0 .. nb-1``, hinge children ``nb .. nb+nh-1``. Each body's *local
 points* are measured from its centre of mass, in its own frame.
 
