@@ -90,25 +90,28 @@ against central differences in float64 (``tests/test_design.py``) and agreeing t
 
 * ``gradient="forward"`` (default): ``diffrax.ForwardMode`` + ``jax.jacfwd``, the k tangents carried
   along the same adaptive solve. Chosen for its compile time (15-35 s against 35-65 s for reverse
-  mode on the shared 2-core machine) and because it is the cheaper mode for small batches: gradient
-  / forward cost 2.4x at n = 8 against 2.8x for reverse mode. It scales worse with the batch:
-  3.6-5.6x at n = 32 (several runs; the machine's load varies).
+  mode on the shared 2-core machine) and because it is the cheaper mode at every batch size
+  measured (below).
 * ``gradient="reverse"``: ``RecursiveCheckpointAdjoint`` + ``jax.grad``. ``checkpoints``
   (default ``REVERSE_CHECKPOINTS`` = 2048) is its checkpoint count: with at least as many
   checkpoints as solver steps (a rigid-level landing takes ~1100) every step is stored once and
   none is recomputed. diffrax's own default, ~sqrt(2 max_steps) = 632 for the rigid level's step
-  budget, recomputes part of the solve. Measured (session 5, gradient / forward time): n = 8,
-  2.95x with 2048 against 3.44x with 632; n = 32, 3.0x against 3.55x in one run and 3.80x against
-  3.86x in another (``experiments/bench_design.py --sections cost``); memory ~2048 x 70 floats per
-  case, 37 MB at n = 32. Prefer it for batches of 32 and more (forward mode: 4.1-5.0x there).
+  budget, recomputes part of the solve (4.25x against 3.92x at n = 32, session 11); memory
+  ~2048 x 70 floats per case, 37 MB at n = 32. Its cost does not grow with the number of design
+  variables: 17 variables at n = 16 cost 0.78 s against 0.24 s forward
+  (``bench_design_profile.md``), which is what makes L-BFGS beat Nelder-Mead there.
   ``BacksolveAdjoint`` cannot be used: :func:`jaxcable.simulate` saves its probes
   with ``SubSaveAt``, which diffrax's backsolve adjoint does not support.
 
-The goal of <= 3x is met at n = 8 (2.5x forward mode; reverse 2.95-3.4x) and not at n = 32
-(reverse mode with 2048 checkpoints: 3.0-3.8x over several runs, 3.56x in session 7; forward mode
-4.25x; ``experiments/results/bench_design.md``). With many design variables reverse mode's cost
-does not grow with their number: 17 variables at n = 16 cost 0.78 s against 0.24 s forward
-(``bench_design_profile.md``), which is what makes L-BFGS beat Nelder-Mead there.
+Cost (gradient call / forward call, rigid level, m_w and F_f, 2-core AMD EPYC, JAX 0.10.2 CPU,
+float64; session 11, after the rocket's Newton-Euler path in :mod:`jaxcable.body.multibody`):
+forward mode 2.6-2.8x at n = 8, 2.9-3.0x at n = 32, 2.9-3.2x at n = 64 (batch chunks "auto");
+reverse mode 3.8-4.1x; with XLA's CPU library fusions off every call is faster and forward mode
+over chunks of 32 costs 2.96x (n = 32) and 2.75x (n = 64), ``experiments/bench_xla_flags.py`` (``experiments/bench_free_body.py``, ``experiments/bench_design.py
+--sections chunk cost``). The goal of <= 3x is met by forward mode up to n = 32 and sits at it
+at n = 64 (the runs spread by +-5% on this machine). What remains is diffrax's loop carrying the
+tangents and the vector field's tangent, which costs ~4x its value at 32 cases
+(``experiments/bench_gradient_cost.py``).
 The gradient is that of the discrete adaptive solve: at the rigid level's rtol = 1e-6 it is 0.6 %
 from the converged gradient (rtol 1e-8: 0.07 %), which is ample for the optimiser but not for a
 finite-difference check (the tests use rtol 1e-8). Measurements: ``experiments/bench_design.py``.
@@ -969,7 +972,9 @@ def _one_two_phase_case(problem: DesignProblem, terminal, conditions, x, adjoint
 
 AUTO_CHUNK = {"forward": 32, "forward_mode": 16, "reverse_mode": 32}
 """``DesignProblem.chunk = "auto"`` on the CPU: cases per vmapped call for the forward objective and
-for the gradients (measured at the rigid level, n = 32 and 64: ``bench_design.py --sections chunk``)."""
+for the gradients (measured at the rigid level, n = 32 and 64: ``bench_design.py --sections chunk``).
+With XLA's CPU library fusions turned off (``XLA_FLAGS=--xla_cpu_experimental_ynn_fusion_type=``)
+forward mode is faster over chunks of 32 (``bench_xla_flags.py``): pass ``chunk=32`` then."""
 
 
 def _chunk_size(problem: DesignProblem, adjoint) -> int | None:
