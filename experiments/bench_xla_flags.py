@@ -113,11 +113,13 @@ def main():
         for _ in range(args.rounds):
             for setting, flags in SETTINGS.items():
                 env = dict(os.environ, XLA_FLAGS=(os.environ.get("XLA_FLAGS", "") + " " + flags).strip())
-                cmd = [sys.executable, __file__, "--child", str(n), "--repeats", str(args.repeats)] + (["--ale"] if args.ale else [])
+                cmd = [sys.executable, __file__, "--child", str(n), "--repeats", str(args.repeats)]
+                cmd += ["--ale"] if args.ale else []
                 res = subprocess.run(cmd,
                                      env=env, capture_output=True, text=True, check=True)  # fmt: skip
                 got = json.loads(res.stdout.strip().splitlines()[-1])
-                row = rows.setdefault((n, setting), dict(n=n, setting=setting, best=got["best"], first=got["first"], grad=got["grad"]))
+                new = dict(n=n, setting=setting, best=got["best"], first=got["first"], grad=got["grad"])
+                row = rows.setdefault((n, setting), new)
                 row["best"] = {k: min(v, got["best"][k]) for k, v in row["best"].items()}
                 print(f"n {n} {setting}: " + ", ".join(f"{k} {v:.3f} s" for k, v in got["best"].items()), flush=True)
     data["rows"] = list(rows.values())

@@ -712,7 +712,9 @@ _NEWTON_EULER_WITHOUT_HINGES = True
 Kane path too (``experiments/bench_free_body.py`` compares the two; not a user setting)."""
 
 
-def _free_body_accelerations(system, state, point_forces, body_torques_world, hinge_torques, gravity, beams, generalized_force):
+def _free_body_accelerations(
+    system, state, point_forces, body_torques_world, hinge_torques, gravity, beams, generalized_force
+):
     """:func:`accelerations` of a system without hinges: Newton-Euler body by body.
 
     With no hinge every generalised speed is a body's own ``v`` or ``omega_body``, so ``Jv`` and
@@ -774,7 +776,9 @@ def accelerations(
     return _kane_accelerations(*args)
 
 
-def _kane_accelerations(system, state, point_forces, body_torques_world, hinge_torques, gravity, beams, generalized_force):
+def _kane_accelerations(
+    system, state, point_forces, body_torques_world, hinge_torques, gravity, beams, generalized_force
+):
     """The general path of :func:`accelerations` (any tree of free bodies and hinge children)."""
     q, u = _coords(state), speeds(state)
     poses = _poses(system, q)
