@@ -7,8 +7,9 @@ rocket: one body, hooks welded) through Newton-Euler body by body, ``m v_dot = F
 tangents to round-off (``tests/arresting/test_multibody.py``). This script measures what the
 shortcut buys on the rigid design objective (``m_w``, ``F_f``, the paper's design, t_end 1.2 s):
 the forward call, the forward-mode gradient and the reverse-mode gradient at each batch size, both
-paths compiled ahead of time in one process (``multibody._NEWTON_EULER_WITHOUT_HINGES`` is read at
-trace time), then timed in turn, round by round (best of ``--repeats``).
+paths compiled ahead of time in one process (for the Kane path ``multibody._free_body_accelerations``
+is replaced by ``multibody._kane_accelerations`` while the calls are traced), then timed in turn,
+round by round (best of ``--repeats``).
 
 Writes ``experiments/results/bench_free_body.{json,md}``. Usage:
     python experiments/bench_free_body.py                      # ~6 min on 2 cores
@@ -27,7 +28,7 @@ import jaxcable
 from jaxcable.body import multibody
 from jaxcable.design import design_problem, objective_and_grad, objective_value, paper_start
 
-PATHS = {"kane": False, "newton_euler": True}
+PATHS = {"kane": multibody._kane_accelerations, "newton_euler": multibody._free_body_accelerations}
 
 
 def compiled_calls(n, t_end):
@@ -37,14 +38,14 @@ def compiled_calls(n, t_end):
     rev = design_problem("m_w,F_f", n=n, t_end_s=t_end, gradient="reverse")
     u0 = base.space.to_unconstrained(paper_start(base))
     calls = {}
-    for path, flag in PATHS.items():
-        multibody._NEWTON_EULER_WITHOUT_HINGES = flag
+    for path, hinge_free in PATHS.items():
+        multibody._free_body_accelerations = hinge_free  # looked up when accelerations is traced
         jax.clear_caches()
         for name, fn, pr in (("forward", objective_value, base), ("forward_mode", objective_and_grad, fm),
                              ("reverse_mode", objective_and_grad, rev)):  # fmt: skip
             compiled = fn.lower(pr, u0).compile()
             calls[f"{path}/{name}"] = (lambda c, p_: (lambda: c(p_, u0)))(compiled, pr)
-    multibody._NEWTON_EULER_WITHOUT_HINGES = True
+    multibody._free_body_accelerations = PATHS["newton_euler"]
     return calls
 
 

@@ -707,9 +707,11 @@ def generalized_force_from_energy(system, state, energy_fn):
     return -Q
 
 
-_NEWTON_EULER_WITHOUT_HINGES = True
-"""Read when :func:`accelerations` is traced: ``False`` sends hinge-free systems through the general
-Kane path too (``experiments/bench_free_body.py`` compares the two; not a user setting)."""
+def _stabilised_rates(system, state):
+    """``q_dot = K(q) u`` with the norm-stabilisation term ``k (1 - |q|^2) q`` added to ``quat_dot``."""
+    r_dot, quat_dot, hinge_rate = _kinematic_rates(_coords(state), speeds(state), system)
+    norm_sq = jnp.sum(state.quat**2, axis=1, keepdims=True)
+    return r_dot, quat_dot + system.quat_stabilisation_per_s * (1.0 - norm_sq) * state.quat, hinge_rate
 
 
 def _free_body_accelerations(
@@ -740,9 +742,7 @@ def _free_body_accelerations(
         torque = torque + generalized_force[3 * nb : 6 * nb].reshape(nb, 3)
     v_dot = force / system.body_mass_kg[:, None]
     omega_dot = jax.vmap(_spd_solve)(J, torque)
-    r_dot, quat_dot, hinge_rate = _kinematic_rates(_coords(state), speeds(state), system)
-    norm_sq = jnp.sum(state.quat**2, axis=1, keepdims=True)
-    quat_dot = quat_dot + system.quat_stabilisation_per_s * (1.0 - norm_sq) * state.quat
+    r_dot, quat_dot, hinge_rate = _stabilised_rates(system, state)
     return MultibodyState(
         r=r_dot, quat=quat_dot, v=v_dot, omega_body=omega_dot, hinge_angle=hinge_rate,
         hinge_rate=jnp.zeros_like(state.hinge_rate),
@@ -771,7 +771,7 @@ def accelerations(
     ``n_u = 6 nb + nh`` (34 for the 5-body rocket with four hooks).
     """
     args = (system, state, point_forces, body_torques_world, hinge_torques, gravity, beams, generalized_force)
-    if system.n_hinges == 0 and _NEWTON_EULER_WITHOUT_HINGES:
+    if system.n_hinges == 0:
         return _free_body_accelerations(*args)
     return _kane_accelerations(*args)
 
@@ -797,9 +797,7 @@ def _kane_accelerations(
     M = _mass_matrix(system, Jv, Jw)
     u_dot = _spd_solve(M, Q)
     v_dot, omega_dot, hinge_acc = _split_speeds(system, u_dot)
-    r_dot, quat_dot, hinge_rate = _kinematic_rates(q, u, system)
-    norm_sq = jnp.sum(state.quat**2, axis=1, keepdims=True)
-    quat_dot = quat_dot + system.quat_stabilisation_per_s * (1.0 - norm_sq) * state.quat
+    r_dot, quat_dot, hinge_rate = _stabilised_rates(system, state)
     return MultibodyState(
         r=r_dot, quat=quat_dot, v=v_dot, omega_body=omega_dot, hinge_angle=hinge_rate, hinge_rate=hinge_acc
     )
