@@ -104,13 +104,14 @@ against central differences in float64 (``tests/test_design.py``) and agreeing t
   with ``SubSaveAt``, which diffrax's backsolve adjoint does not support.
 
 Cost (gradient call / forward call, rigid level, m_w and F_f, 2-core AMD EPYC, JAX 0.10.2 CPU,
-float64; session 11, after the rocket's Newton-Euler path in :mod:`jaxcable.body.multibody`):
+float64; session 11, after the rocket's Newton-Euler path in :mod:`jaxcable.body.multibody`;
+``experiments/bench_free_body.py``, ``experiments/bench_design.py --sections chunk cost``):
 forward mode 2.6-2.8x at n = 8, 2.9-3.0x at n = 32, 2.9-3.2x at n = 64 (batch chunks "auto");
-reverse mode 3.8-4.1x; with XLA's CPU library fusions off every call is faster and forward mode
-over chunks of 32 costs 2.96x (n = 32) and 2.75x (n = 64), ``experiments/bench_xla_flags.py`` (``experiments/bench_free_body.py``, ``experiments/bench_design.py
---sections chunk cost``). The goal of <= 3x is met by forward mode up to n = 32 and sits at it
-at n = 64 (the runs spread by +-5% on this machine). What remains is diffrax's loop carrying the
-tangents and the vector field's tangent, which costs ~4x its value at 32 cases
+reverse mode 3.8-4.1x. The goal of <= 3x is met by forward mode up to n = 32 and sits at it at
+n = 64 (the runs spread by +-5% on this machine). With XLA's CPU library fusions off every call is
+faster, and forward mode over chunks of 32 costs 2.96x (n = 32) and 2.75x (n = 64)
+(``experiments/bench_xla_flags.py``). What remains is diffrax's loop carrying the tangents and the
+vector field's tangent, which costs ~4x its value at 32 cases
 (``experiments/bench_gradient_cost.py``).
 The gradient is that of the discrete adaptive solve: at the rigid level's rtol = 1e-6 it is 0.6 %
 from the converged gradient (rtol 1e-8: 0.07 %), which is ample for the optimiser but not for a
