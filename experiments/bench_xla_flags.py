@@ -50,7 +50,10 @@ def child(n, repeats, ale=False):
         calls[label] = (lambda p_: (lambda: objective_and_grad(p_, u0)))(pr)
     outs, first, best = _report.time_rounds(calls, repeats)
     grad = [float(g) for g in outs["forward_mode_32"][1]]
-    print(json.dumps(dict(best=best, first=first, grad=grad, objective=float(outs["forward"][0]))))
+    import jax
+
+    print(json.dumps(dict(best=best, first=first, grad=grad, objective=float(outs["forward"][0]),
+                          float64=bool(jax.config.jax_enable_x64))))
 
 
 def write_md_ale(data, path):
@@ -108,7 +111,7 @@ def main():
         args.n = [1]
     out = _report.output_dir(args.out)
     data = _report.start(rounds=args.rounds, repeats=args.repeats)
-    rows = {}
+    rows, precisions = {}, set()
     for n in args.n:
         for _ in range(args.rounds):
             for setting, flags in SETTINGS.items():
@@ -118,11 +121,15 @@ def main():
                 res = subprocess.run(cmd,
                                      env=env, capture_output=True, text=True, check=True)  # fmt: skip
                 got = json.loads(res.stdout.strip().splitlines()[-1])
+                precisions.add(got["float64"])
                 new = dict(n=n, setting=setting, best=got["best"], first=got["first"], grad=got["grad"])
                 row = rows.setdefault((n, setting), new)
                 row["best"] = {k: min(v, got["best"][k]) for k, v in row["best"].items()}
                 print(f"n {n} {setting}: " + ", ".join(f"{k} {v:.3f} s" for k, v in got["best"].items()), flush=True)
     data["rows"] = list(rows.values())
+    # The timed calls run in the children, which enable float64; the parent's own setting (read by
+    # _report.start) says nothing about them.
+    (data["machine"]["float64"],) = precisions
     if args.ale:
         _report.finish(data, out, "bench_xla_flags_ale", write_md_ale)
     else:
