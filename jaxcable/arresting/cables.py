@@ -357,8 +357,9 @@ def _scatter_element_ends(rows):
 
 def _matvec(A, x):
     """``A @ x`` as broadcast-multiply-sum: the small contractions of the vector field are written
-    this way throughout, so XLA fuses them with their neighbours (a ``dot`` is a separate kernel
-    launch on CPU, and launches, not flops, dominate at these sizes)."""
+    this way, so XLA fuses them with their neighbours (a ``dot`` is a separate kernel launch on
+    CPU, and launches, not flops, dominate at these sizes). Not the sums over all elements into
+    the slow-coordinate blocks: see :func:`_gram`."""
     return jnp.sum(A * x[None, :], axis=1)
 
 
