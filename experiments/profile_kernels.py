@@ -13,7 +13,7 @@ path (session 12: removing a 67 us sort of the ale contact's derivative did not 
 time). Confirm any change with a timed comparison (``bench_xla_flags.py``, ``bench_design.py``).
 
 This is how the ale level's slow-coordinate blocks were found (session 12: two library fusions
-took most of the ALE vector field, ``jaxcable.arresting.cables._gram``).
+took most of the ALE vector field: ``CableSubsystem.accelerations`` in ``jaxcable.arresting.cables``).
 
     python experiments/profile_kernels.py --level ale --call fm          # ~1 min
     python experiments/profile_kernels.py --level rigid --n 32 --call fm --chunk 32

@@ -359,18 +359,8 @@ def _matvec(A, x):
     """``A @ x`` as broadcast-multiply-sum: the small contractions of the vector field are written
     this way, so XLA fuses them with their neighbours (a ``dot`` is a separate kernel launch on
     CPU, and launches, not flops, dominate at these sizes). Not the sums over all elements into
-    the slow-coordinate blocks: see :func:`_gram`."""
+    the slow-coordinate blocks: see :meth:`CableSubsystem.accelerations`."""
     return jnp.sum(A * x[None, :], axis=1)
-
-
-def _gram(A, B):
-    """``sum_{i,j} A[i, j, :, None] * B[i, j, None, :]`` for ``A`` (n, 3, k), ``B`` (n, 3, l): the (k, l)
-    slow-coordinate blocks of :meth:`CableSubsystem.accelerations`, as one ``dot`` over the
-    flattened leading axes. Written as a multiply-sum (the ``_matvec`` style), XLA's CPU backend
-    compiled these reductions to library ("ynn") fusions that took most of the ale vector field's
-    time (47 + 16 us of a ~76 us evaluation; with two tangents 160 + 50 + 40 us: ``jax.profiler``
-    trace of the ale design objective, 2-core AMD EPYC, JAX 0.10.2 CPU, float64, session 12)."""
-    return A.reshape(-1, A.shape[-1]).T @ B.reshape(-1, B.shape[-1])
 
 
 def _small_solve(A, b):
@@ -592,8 +582,16 @@ class CableSubsystem(eqx.Module):
         c = (self.cable.rhoA_kg_per_m / 6.0) * kin.length
         H1 = c[:, None, None] * (2.0 * G1 + G2)
         H2 = c[:, None, None] * (G1 + 2.0 * G2)
-        M_ss = _gram(G1, H1) + _gram(G2, H2)
-        n_slow = M_ss.shape[0]
+        # The slow blocks (M_ss, the Schur complement, its right-hand side) sum over every element: one
+        # dot each. As multiply-sums, XLA's CPU backend compiled them to library ("ynn") fusions that
+        # took most of the ale vector field (47 + 16 us of ~76 us; with two tangents 160 + 50 + 40 us;
+        # experiments/profile_kernels.py, session 12). Their left operands are built with the slow
+        # axis first, (n_slow, n_el, 3), elementwise: read from G1 (n_el, 3, n_slow), the dot first
+        # made a transposing copy (12 us each with two tangents; building them so: forward 7% faster).
+        G1T = jnp.concatenate([-S[:-1].T[:, :, None] * t[None], U[None, :-1]], axis=0)
+        G2T = jnp.concatenate([-S[1:].T[:, :, None] * t[None], U[None, 1:]], axis=0)
+        n_slow = G1T.shape[0]
+        M_ss = jnp.concatenate([G1T, G2T], axis=1).reshape(n_slow, -1) @ jnp.concatenate([H1, H2]).reshape(-1, n_slow)
         M_ss = M_ss.at[n_slow - 1, n_slow - 1].add(b.counterweight_mass_kg * b.transfer_rate**2)
         Q_slow = jnp.concatenate([Q_s, Q_u[None]])
         active = np.array(route.active_slots, dtype=int)
@@ -601,6 +599,13 @@ class CableSubsystem(eqx.Module):
             zero = jnp.zeros((1,) + H1.shape[1:], H1.dtype)
             # coupling rows of the internal nodes: (n_int, 3, n_slow)
             M_rs = route.internal_rows(jnp.concatenate([H1, zero]) + jnp.concatenate([zero, H2]))
+            # the same rows with the slow axis first, (n_slow, n_int * 3), for the dots below
+            cT = c[None, :, None]
+            zeroT = jnp.zeros((n_slow, 1, 3), H1.dtype)
+            nodalT = jnp.concatenate([cT * (2.0 * G1T + G2T), zeroT], axis=1) + jnp.concatenate(
+                [zeroT, cT * (G1T + 2.0 * G2T)], axis=1
+            )
+            M_rsT = route.internal_rows(nodalT.swapaxes(0, 1)).swapaxes(0, 1).reshape(n_slow, -1)
             # The internal-node block is blockdiag_j(rhoA L_j / 6 That_j) (x) I3 over the spans j, with
             # L_j the span's material length and That_j the tridiagonal of its material fractions
             # (constant in time), so its inverse is a scaled constant matrix: one small matmul per
@@ -615,8 +620,8 @@ class CableSubsystem(eqx.Module):
             sol = (6.0 / self.cable.rhoA_kg_per_m) / span_length[:, None] * (route.mass_pattern_inverse() @ rhs)
             Minv_fr = sol[:, :3]
             Minv_Mrs = sol[:, 3:].reshape(n_int, 3, n_slow)
-            schur = M_ss - _gram(M_rs, Minv_Mrs)
-            reduced_rhs = Q_slow - _gram(M_rs, Minv_fr[..., None])[:, 0]
+            schur = M_ss - M_rsT @ Minv_Mrs.reshape(-1, n_slow)
+            reduced_rhs = Q_slow - M_rsT @ Minv_fr.reshape(-1)
         else:
             schur, reduced_rhs = M_ss, Q_slow
         if active.size:
