@@ -113,7 +113,7 @@ faster, and forward mode over chunks of 32 costs 2.96x (n = 32) and 2.75x (n = 6
 (``experiments/bench_xla_flags.py``). What remains is diffrax's loop carrying the tangents and the
 vector field's tangent, which costs ~4x its value at 32 cases
 (``experiments/bench_gradient_cost.py``). At the ale level (design case, 0.1 s) forward mode costs
-3.5-4.2x the forward call and reverse mode 4.5x (session 12, after the ALE cable's slow-coordinate
+3.5-4.3x the forward call and reverse mode 4.5x (session 12, after the ALE cable's slow-coordinate
 blocks became dots in ``CableSubsystem.accelerations``; 4.4-4.7x and 5.5x before).
 The gradient is that of the discrete adaptive solve: at the rigid level's rtol = 1e-6 it is 0.6 %
 from the converged gradient (rtol 1e-8: 0.07 %), which is ample for the optimiser but not for a
