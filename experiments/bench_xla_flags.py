@@ -33,6 +33,8 @@ SETTINGS = {"default": "", "ynn_off": "--xla_cpu_experimental_ynn_fusion_type="}
 
 
 def child(n, repeats, ale=False):
+    import jax
+
     import jaxcable
     from jaxcable.design import design_problem, objective_and_grad, objective_value, paper_start
 
@@ -50,8 +52,6 @@ def child(n, repeats, ale=False):
         calls[label] = (lambda p_: (lambda: objective_and_grad(p_, u0)))(pr)
     outs, first, best = _report.time_rounds(calls, repeats)
     grad = [float(g) for g in outs["forward_mode_32"][1]]
-    import jax
-
     print(json.dumps(dict(best=best, first=first, grad=grad, objective=float(outs["forward"][0]),
                           float64=bool(jax.config.jax_enable_x64))))
 
