@@ -587,7 +587,8 @@ class CableSubsystem(eqx.Module):
         # took most of the ale vector field (47 + 16 us of ~76 us; with two tangents 160 + 50 + 40 us;
         # experiments/profile_kernels.py, session 12). Their left operands are built with the slow
         # axis first, (n_slow, n_el, 3), elementwise: read from G1 (n_el, 3, n_slow), the dot first
-        # made a transposing copy (12 us each with two tangents; building them so: forward 7% faster).
+        # made a transposing copy (12 us each with two tangents; without it the ale forward call was 7%
+        # faster on the mean of five alternating runs, about this machine's noise).
         G1T = jnp.concatenate([-S[:-1].T[:, :, None] * t[None], U[None, :-1]], axis=0)
         G2T = jnp.concatenate([-S[1:].T[:, :, None] * t[None], U[None, 1:]], axis=0)
         n_slow = G1T.shape[0]
