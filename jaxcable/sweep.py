@@ -2,16 +2,18 @@ r"""Quasi-Monte Carlo robustness sweeps: batched, sharded over devices, resumabl
 
 Arresting-cable paper, section IV: 100 Halton cases per wind scenario (Tables 2, 3, 4, 8), the
 success criteria of section IV.A (z_max < 10 m, a_max < 5 g, sigma_max < 800 MPa), the statistics of
-Tables 6, 7 and 9, the time histories of Figs 18-20 and the criteria over the landing plane of
-Fig 21. The points come from :mod:`jaxcable.arresting.uncertainty`.
+Tables 5, 6, 7 and 9, the trajectories and tracking errors of Figs 15-17 (two-phase sweeps), the
+time histories of Figs 18-20 and the criteria over the landing plane of Fig 21. The points come
+from :mod:`jaxcable.arresting.uncertainty`.
 
 How a sweep is built (physics stays single-case, STYLE.md 3):
 
 * A **case function** maps one case's parameters to its scalar outputs,
   ``case_fn(params: dict[str, scalar]) -> dict[str, scalar]``. It is an ``eqx.Module`` (its array
   fields, e.g. the buffer device, are parameters too). :class:`PassiveCaseFunction` runs the
-  passive-deceleration phase; a two-phase case function will be registered for ``phase="full"``
-  with :func:`register_case_fn` (until then :func:`case_fn_for` says it is not available).
+  passive-deceleration phase; the two-phase case function
+  (:class:`jaxcable.arresting.two_phase.TwoPhaseCaseFunction`, tracking, capture and passive phase
+  at the ``rigid`` level) registers itself for ``phase="full"`` with :func:`register_case_fn`.
 * :func:`run_sweep` lifts it with ``jax.vmap`` over chunks of ``batch_size`` cases; each chunk is
   sharded over the local devices (a 1-D ``Mesh``, ``NamedSharding`` on the case axis, the chunk
   padded to a multiple of the device count) and run under ``jax.shard_map``, so each device
@@ -75,9 +77,12 @@ __all__ = [
     "case_fn_for",
     "merge_sweep_csvs",
     "passive_case_fn",
+    "passive_histories",
     "plot_histories",
     "plot_landing_plane",
+    "plot_tracking",
     "process_indices",
+    "qmc_case_fn",
     "read_sweep_csv",
     "register_case_fn",
     "run_histories",
@@ -289,18 +294,8 @@ class PassiveCaseFunction(AbstractCaseFunction):
         return {k: jnp.asarray(v) for k, v in out.items()}
 
     def solve_histories(self, scene):
-        """Figs 18-20: ``ts`` [s], ``drop_m`` [m], ``acceleration_g`` (|a| of the centre of mass
-        [g]), ``stress_max_mpa`` [MPa] on the saved grid (n_save,); NaN after a failed run ended."""
-        r = self._simulate(scene)
-        finite = jnp.isfinite(r.ts)
-        acc = jnp.linalg.norm(r.probes["acceleration_m_s2"], axis=1) / G_CRITERIA
-        mask = lambda v: jnp.where(finite, v, jnp.nan)  # noqa: E731
-        return dict(
-            ts=mask(r.ts),
-            drop_m=mask(r.probes["drop_m"]),
-            acceleration_g=mask(acc),
-            stress_max_mpa=mask(r.probes["stress_max_pa"] / 1e6),
-        )
+        """Figs 18-20 (:func:`passive_histories`) of one built case."""
+        return passive_histories(self._simulate(scene))
 
     def describe(self):
         return dict(
@@ -319,6 +314,21 @@ class PassiveCaseFunction(AbstractCaseFunction):
             # only when changed, so that sweeps written before the field existed still resume
             **({} if self.cable_damping_s == DEFAULT_CABLE_DAMPING_S else dict(cable_damping_s=self.cable_damping_s)),
         )
+
+
+def passive_histories(result) -> dict:
+    """Figs 18-20 from a passive scene's :class:`~jaxcable.simulate.Result`: ``ts`` (time since
+    capture [s]), ``drop_m`` [m], ``acceleration_g`` (|a| of the centre of mass [g]),
+    ``stress_max_mpa`` [MPa] on the saved grid (n_save,); NaN after a failed run ended."""
+    finite = jnp.isfinite(result.ts)
+    acc = jnp.linalg.norm(result.probes["acceleration_m_s2"], axis=1) / G_CRITERIA
+    mask = lambda v: jnp.where(finite, v, jnp.nan)  # noqa: E731
+    return dict(
+        ts=mask(result.ts),
+        drop_m=mask(result.probes["drop_m"]),
+        acceleration_g=mask(acc),
+        stress_max_mpa=mask(result.probes["stress_max_pa"] / 1e6),
+    )
 
 
 def passive_case_fn(
@@ -754,6 +764,17 @@ def _jsonable(x):
 # ------------------------------------------------------------------------------------------------
 
 
+def qmc_case_fn(scenario: str = "I", phase: str = "passive", fidelity: str = "rigid", seed: int = 0, **case_kwargs):
+    """The case function of section IV's sweep of ``scenario`` and ``phase``: what
+    :func:`run_qmc_sweep` runs, and what the time histories of its cases must be drawn from (the
+    seed sets each case's gust, and in the two-phase sweep its measurement noise, too)."""
+    check_choice("scenario", scenario, SCENARIOS)
+    check_choice("phase", phase, PHASES)
+    if phase == "full":
+        case_kwargs = dict(case_kwargs, scenario=scenario)
+    return case_fn_for(phase, fidelity, seed=int(seed), **case_kwargs)
+
+
 def run_qmc_sweep(
     scenario: str = "I",
     n: int = 100,
@@ -775,13 +796,7 @@ def run_qmc_sweep(
 
     The sidecar identity holds scenario, phase, seed, process slice and the case function; ``n`` may
     grow on resume (the Halton prefix property keeps the earlier cases), not shrink."""
-    check_choice("scenario", scenario, SCENARIOS)
-    check_choice("phase", phase, PHASES)
-    if phase == "full":
-        case_kwargs = dict(case_kwargs, scenario=scenario, seed=int(seed))
-    else:
-        case_kwargs = dict(case_kwargs, seed=int(seed))
-    case_fn = case_fn_for(phase, fidelity, **case_kwargs)
+    case_fn = qmc_case_fn(scenario, phase, fidelity, seed, **case_kwargs)
     samples = halton_samples(n, scenario, phase, seed)
     identity = dict(
         scenario=scenario, phase=phase, seed=int(seed), process_index=int(process_index), process_count=int(process_count)
@@ -856,10 +871,42 @@ def summarize_sweep(table: dict, criteria: LandingCriteria = LandingCriteria()) 
             stats = dict(min=float(np.min(v)), max=float(np.max(v)), mean=float(np.mean(v)))
         crit[name] = dict(stats, limit=float(getattr(criteria, limit_field)), n_ok=count(flag), unit=unit)
     summary["criteria"] = crit
+    captured_states = _captured_state_ranges(table, good)
+    if captured_states is not None:
+        summary["captured_states"] = captured_states
     if failed.any():
         statuses, counts = np.unique(np.asarray(table["solver_status"])[failed], return_counts=True)
         summary["failed_status"] = {str(s): int(c) for s, c in zip(statuses, counts)}
     return summary
+
+
+CAPTURED_PREFIX = "captured_"
+"""Prefix of a two-phase sweep's captured-state columns (``captured_x_m`` ... ``captured_omega_z_deg_s``:
+the state of O when the hook throats reach the capture plane, the fields of ``CaptureState``)."""
+
+
+def _captured_state_ranges(table: dict, good: np.ndarray) -> dict | None:
+    """Like Table 5: min, max and mean of each captured-state column over the captured cases that did
+    not fail, beside Table 8's range of that state (the paper's passive-phase sweep is said to
+    cover the captured states: section IV.C), or ``None`` for a sweep without such columns."""
+    order = [CAPTURED_PREFIX + f for f in CaptureState.__dataclass_fields__]  # Table 3's order
+    names = sorted((k for k in table if k.startswith(CAPTURED_PREFIX)), key=lambda k: order.index(k) if k in order else len(order))
+    if not names:
+        return None
+    from .arresting.uncertainty import scenario_ranges
+
+    table8 = scenario_ranges("I", "passive")  # the same captured-state ranges in every scenario
+    use = good & np.asarray(table["captured"], dtype=bool)
+    out = {}
+    for name in names:
+        state = name[len(CAPTURED_PREFIX) :]
+        v = np.asarray(table[name], dtype=float)[use]
+        stats = dict(min=float(v.min()), max=float(v.max()), mean=float(v.mean())) if v.size else dict(min=None, max=None, mean=None)
+        lo_hi = table8.get(state) if state in UNCERTAIN_PARAMETERS[:10] else None
+        out[state] = dict(stats, n=int(v.size), table8_range=None if lo_hi is None else [float(lo_hi[0]), float(lo_hi[1])])
+        if v.size and lo_hi is not None:
+            out[state]["within_table8"] = bool(lo_hi[0] <= v.min() and v.max() <= lo_hi[1])
+    return out
 
 
 def summary_markdown(summary: dict, title: str = "Sweep") -> str:
@@ -882,6 +929,20 @@ def summary_markdown(summary: dict, title: str = "Sweep") -> str:
         f"| {summary['n_cases']} | {summary['n_failed']} | {summary['n_captured']} | {summary['n_stopped']} | "
         f"{summary['n_success']} | {f(None if rate is None else 100 * rate, '{:.1f}')} % |",
     ]
+    states = summary.get("captured_states")
+    if states:
+        n_cap = next(iter(states.values()))["n"]
+        lines += [
+            "",
+            f"Captured states (like Table 5; {n_cap} captured cases), beside Table 8's ranges:",
+            "",
+            "| state | min | max | mean | Table 8 range |",
+            "|---|---:|---:|---:|---:|",
+        ]
+        for name, c in states.items():
+            rng = c["table8_range"]
+            rng = "-" if rng is None else f"{rng[0]:g} .. {rng[1]:g}" + ("" if c.get("within_table8", True) else " (exceeded)")
+            lines.append(f"| {name} | {f(c['min'])} | {f(c['max'])} | {f(c['mean'])} | {rng} |")
     if summary.get("failed_status"):
         lines += ["", "Failed cases by solver status: " + ", ".join(f"{k}: {v}" for k, v in summary["failed_status"].items())]
     return "\n".join(lines) + "\n"
@@ -899,22 +960,30 @@ def _plt():
 def plot_landing_plane(table: dict, path, title: str = "", criteria: LandingCriteria = LandingCriteria()):
     """Like Fig 21: (a) capture positions with lateral-velocity (red) and inclination (green) arrows;
     (b-d) z_max, a_max, sigma_max over the landing plane (x, y coloured by the criterion; failed
-    cases as black crosses)."""
+    cases as black crosses, cases whose hooks missed the cables ringed in red). The capture state is
+    the sweep's input in a passive sweep and the state at capture (``captured_*`` columns) in a
+    two-phase sweep."""
     plt = _plt()
-    x, y = np.asarray(table["x_m"], float), np.asarray(table["y_m"], float)
+    pre = CAPTURED_PREFIX if CAPTURED_PREFIX + "x_m" in table else ""
+    col = lambda name: np.asarray(table[pre + name], float)  # noqa: E731
+    x, y = col("x_m"), col("y_m")
     failed = np.asarray(table["failed"], bool)
+    missed = ~np.asarray(table["captured"], bool) & ~failed
     fig, axes = plt.subplots(2, 2, figsize=(11, 9.5))
     ax = axes[0, 0]
     ax.scatter(x, y, s=10, c="k")
-    ax.quiver(x, y, table["vx_m_s"], table["vy_m_s"], color="r", angles="xy", scale_units="xy", scale=0.5, width=0.003, label="v_xy (1 m/s = 2 m)")
-    ax.quiver(x, y, table["theta_y_deg"], -np.asarray(table["theta_x_deg"], float), color="g", angles="xy", scale_units="xy", scale=4.0, width=0.003, label="tilt direction (4 deg = 1 m)")
-    ax.set_title("a) capture states", fontsize=10)
+    ax.quiver(x, y, col("vx_m_s"), col("vy_m_s"), color="r", angles="xy", scale_units="xy", scale=0.5, width=0.003, label="v_xy (1 m/s = 2 m)")
+    ax.quiver(x, y, col("theta_y_deg"), -col("theta_x_deg"), color="g", angles="xy", scale_units="xy", scale=4.0, width=0.003, label="tilt direction (4 deg = 1 m)")
+    ax.set_title("a) states at capture", fontsize=10)
     ax.legend(fontsize=7, loc="upper right")
     for ax, letter, (name, _, _, limit_field, unit) in zip(axes.flat[1:], "bcd", CRITERIA):
         v = np.asarray(table[name], float)
         sc = ax.scatter(x[~failed], y[~failed], c=v[~failed], s=30, cmap="viridis")
         if failed.any():
             ax.scatter(x[failed], y[failed], marker="x", c="k", s=30, label="failed")
+        if missed.any():
+            ax.scatter(x[missed], y[missed], s=90, facecolors="none", edgecolors="r", label="hooks missed")
+        if failed.any() or missed.any():
             ax.legend(fontsize=7)
         fig.colorbar(sc, ax=ax, label=f"{name} [{unit}] (limit {getattr(criteria, limit_field):g})")
         ax.set_title(f"{letter}) {name}", fontsize=10)
@@ -946,6 +1015,50 @@ def plot_histories(histories: dict, path, title: str = "", criteria: LandingCrit
         ax.set_ylabel(label)
     axes[-1].set_xlabel("time since capture [s]")
     fig.suptitle(title or f"{ts.shape[0]} cases", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return str(path)
+
+
+def plot_tracking(histories: dict, path, title: str = "", tracking_time_s: float | None = None, tolerance_m: float = 1.0):
+    """Like Figs 15-17 (two-phase sweeps, :meth:`TwoPhaseCaseFunction.histories`): (a) the
+    trajectories of O from the terminal-guidance point (black) to capture (red; open red ring: the
+    hooks missed the cables), (b) the tracking error |frame centre - measured target| against
+    time, one line per case, with ``t_c / 2`` (when given) and the tracking tolerance."""
+    plt = _plt()
+    ts = np.asarray(histories["tracking_ts"], float)
+    pos = np.asarray(histories["o_position_m"], float)
+    cap = np.asarray(histories["captured_position_m"], float)
+    captured = np.asarray(histories["captured"], bool)
+    err = np.asarray(histories["tracking_error_m"], float)
+    fig = plt.figure(figsize=(13, 5.8))
+    ax = fig.add_subplot(1, 2, 1, projection="3d")
+    for p in pos:
+        ok = np.isfinite(p[:, 0])
+        ax.plot(p[ok, 0], p[ok, 1], p[ok, 2], lw=0.6, alpha=0.6)
+    ax.scatter(pos[:, 0, 0], pos[:, 0, 1], pos[:, 0, 2], c="k", s=8, label="terminal-guidance point")
+    ax.scatter(cap[captured, 0], cap[captured, 1], cap[captured, 2], c="r", s=8, label="captured")
+    if (~captured).any():
+        ax.scatter(cap[~captured, 0], cap[~captured, 1], cap[~captured, 2], s=40, facecolors="none", edgecolors="r", label="hooks missed")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_zlabel("z [m]")
+    ax.set_title("a) trajectories of O to the capture plane", fontsize=10)
+    ax.legend(fontsize=7, loc="upper left")
+    ax = fig.add_subplot(1, 2, 2)
+    for t, e in zip(ts, err):
+        ok = np.isfinite(t) & (e > 0)
+        ax.plot(t[ok], e[ok], lw=0.6, alpha=0.7)
+    ax.set_yscale("log")
+    if tracking_time_s is not None:
+        ax.axvline(0.5 * tracking_time_s, color="k", ls="--", lw=1, label="t_c / 2")
+    ax.axhline(tolerance_m, color="r", ls=":", lw=1, label=f"tracking tolerance {tolerance_m:g} m")
+    ax.set_xlabel("time since terminal guidance [s]")
+    ax.set_ylabel("tracking error |frame centre - target| [m]")
+    ax.set_title("b) tracking errors", fontsize=10)
+    ax.legend(fontsize=7)
+    fig.suptitle(title or f"{ts.shape[0]} cases", fontsize=11)
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)
@@ -984,7 +1097,7 @@ def _build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--scenario", choices=SCENARIOS, default="I", help="wind scenario of Table 4 (default I)")
     p.add_argument("--n", type=positive_int("--n"), default=100, help="number of Halton cases (default 100, as the paper)")
-    p.add_argument("--phase", choices=PHASES, default="passive", help="passive: from capture (Table 8); full: two-phase (not available yet)")
+    p.add_argument("--phase", choices=PHASES, default="passive", help="passive: from capture (Table 8 states); full: two-phase, tracking from the terminal-guidance point (Table 3 states), capture, passive phase (rigid level)")
     p.add_argument(
         "--fidelity",
         choices=SWEEP_FIDELITIES,
@@ -999,8 +1112,8 @@ def _build_parser() -> argparse.ArgumentParser:
     p.add_argument("--rtol", type=positive("--rtol"), default=None, help="relative = absolute tolerance (default per level)")
     p.add_argument("--max-steps", type=positive_int("--max-steps"), default=None, help="solver step budget per case (default per level)")
     p.add_argument("--cable-damping", type=float, default=DEFAULT_CABLE_DAMPING_S, help=f"cables' stiffness-proportional damping beta [s] (default {DEFAULT_CABLE_DAMPING_S:g}; the paper gives none, a_max depends on it)")
-    p.add_argument("--plot", metavar="PREFIX", help="write PREFIX_plane.png (Fig 21) and PREFIX_histories.png (Figs 18-20)")
-    p.add_argument("--plot-cases", type=positive_int("--plot-cases"), default=32, help="cases in the histories plot (default 32)")
+    p.add_argument("--plot", metavar="PREFIX", help="write PREFIX_plane.png (Fig 21), PREFIX_histories.png (Figs 18-20) and, with --phase full, PREFIX_tracking.png (Figs 15-17)")
+    p.add_argument("--plot-cases", type=positive_int("--plot-cases"), default=32, help="cases in the histories and tracking plots (default 32)")
     p.add_argument("--process-index", type=int, default=None, help="this host's index in a multi-host sweep (default: jax.process_index())")
     p.add_argument("--process-count", type=int, default=None, help="hosts in a multi-host sweep (default: jax.process_count())")
     p.add_argument(
@@ -1047,6 +1160,9 @@ def sweep_main(argv: list[str] | None = None) -> int:
         # one file per process (hosts may share a file system): results.p0of4.csv, ...
         path = Path(args.out)
         args.out = str(path.with_name(f"{path.stem}.p{p_index}of{p_count}{path.suffix}"))
+    case_kwargs = dict(
+        t_end_s=args.t_end, solver=args.solver, rtol=args.rtol, max_steps=args.max_steps, cable_damping_s=args.cable_damping
+    )
     try:
         table = run_qmc_sweep(
             args.scenario,
@@ -1059,11 +1175,7 @@ def sweep_main(argv: list[str] | None = None) -> int:
             process_index=p_index,
             process_count=p_count,
             progress=not (args.no_progress or args.json),
-            t_end_s=args.t_end,
-            solver=args.solver,
-            rtol=args.rtol,
-            max_steps=args.max_steps,
-            cable_damping_s=args.cable_damping,
+            **case_kwargs,
         )
     except ValueError as err:
         print(f"jaxcable sweep: error: {err}", file=sys.stderr)
@@ -1080,14 +1192,19 @@ def sweep_main(argv: list[str] | None = None) -> int:
     )
     summary["wind_applied"] = True
     if args.plot:
-        title = f"scenario {args.scenario}, {args.phase} phase, fidelity {args.fidelity}, {summary['n_cases']} cases"
-        summary["plots"] = [plot_landing_plane(table, f"{args.plot}_plane.png", title)]
-        if args.phase == "passive":  # time histories: passive phase only
-            case_fn = case_fn_for(args.phase, args.fidelity, t_end_s=args.t_end, solver=args.solver, rtol=args.rtol, max_steps=args.max_steps, cable_damping_s=args.cable_damping)
-            samples = halton_samples(args.n, args.scenario, args.phase, args.seed)
-            k = min(args.plot_cases, len(table["case"]))
-            hist = run_histories(case_fn, samples, np.asarray(table["case"][:k], int))
-            summary["plots"].append(plot_histories(hist, f"{args.plot}_histories.png", f"{title}: histories of {k} cases"))
+        title = f"scenario {args.scenario}, {args.phase} phase, fidelity {args.fidelity}"
+        summary["plots"] = [plot_landing_plane(table, f"{args.plot}_plane.png", f"{title}, {summary['n_cases']} cases")]
+        # the histories are recomputed for the first --plot-cases cases, from the sweep's own case function
+        case_fn = qmc_case_fn(args.scenario, args.phase, args.fidelity, args.seed, **case_kwargs)
+        samples = halton_samples(args.n, args.scenario, args.phase, args.seed)
+        k = min(args.plot_cases, len(table["case"]))
+        hist = run_histories(case_fn, samples, np.asarray(table["case"][:k], int))
+        if args.phase == "full":
+            from .arresting.uncertainty import scenario_settings
+
+            t_c = scenario_settings(args.scenario)["t_c_s"]
+            summary["plots"].append(plot_tracking(hist, f"{args.plot}_tracking.png", f"{title}: tracking phase, first {k} cases", t_c))
+        summary["plots"].append(plot_histories(hist, f"{args.plot}_histories.png", f"{title}: passive phase, first {k} cases"))
     if args.json:
         print(json.dumps(summary))
     else:

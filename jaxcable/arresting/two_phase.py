@@ -75,7 +75,7 @@ import numpy as np
 
 from .._validation import check_choice, check_positive
 from ..scene import AbstractScene
-from ..sweep import AbstractCaseFunction, case_key, criteria_columns
+from ..sweep import CAPTURED_PREFIX, AbstractCaseFunction, case_key, criteria_columns, passive_histories
 from .buffer import BufferDevice
 from .cable_sets import throat_weights
 from .control import TrackingController, filtered_measurement, measurement_noise_track, target_point
@@ -541,14 +541,23 @@ class TwoPhaseCaseFunction(AbstractCaseFunction):
             layout=self.layout,
         )  # fmt: skip
 
-    def __call__(self, params):
+    def _outputs(self, params, keep_histories=False):
         import diffrax
 
         # a sweep is not differentiated: diffrax's plain while loop instead of the checkpointed one
-        o = two_phase_outputs(
+        return two_phase_outputs(
             self.scene(params), "rigid", self.buffer, passive_t_end_s=self.t_end_s, criteria=self.criteria,
             adjoint=diffrax.ForwardMode(), passive_kwargs=dict(cable_damping_s=self.cable_damping_s),
+            keep_histories=keep_histories,
         )  # fmt: skip
+
+    def __call__(self, params):
+        """One row: success flags, criteria and margins, the capture margin, the tracking error at
+        ``t_c / 2`` and at capture [m], the capture time [s], and the state of O at capture
+        (``captured_x_m`` ... ``captured_omega_z_deg_s``, the fields of :class:`CaptureState`:
+        Table 5's quantities)."""
+        o = self._outputs(params)
+        capture = o["captured_state"]
         return dict(
             captured=o["captured"],
             tracking_ok=o["tracking_ok"],
@@ -557,9 +566,32 @@ class TwoPhaseCaseFunction(AbstractCaseFunction):
             **criteria_columns(o, self.criteria),
             capture_margin_m=o["capture_margin_m"],
             tracking_error_m=o["tracking_error_m"],
+            tracking_error_at_capture_m=o["tracking_error_at_capture_m"],
             capture_time_s=o["capture_time_s"],
+            **{f"{CAPTURED_PREFIX}{f}": getattr(capture, f) for f in capture.__dataclass_fields__},
             status_code=jnp.where(_event_occurred(o["tracking_status"]), o["passive_status"], o["tracking_status"]),
             num_steps=o["tracking_steps"] + o["passive_steps"],
+        )
+
+    def histories(self, params):
+        """Figs 15-20 of one case: the tracking phase on its saved grid (``tracking_ts`` [s] since the
+        terminal-guidance point, ``o_position_m`` (n, 3) [m], ``tracking_error_m`` and
+        ``true_tracking_error_m`` [m], against the measured and the true target; NaN after
+        capture), ``capture_time_s``, ``captured_position_m`` (3,), ``captured``, and the passive
+        phase's histories (:func:`jaxcable.sweep.passive_histories`: time since capture)."""
+        o = self._outputs(params, keep_histories=True)
+        track = o["tracking"]
+        finite = jnp.isfinite(track.ts)
+        mask = lambda v: jnp.where(finite.reshape((-1,) + (1,) * (v.ndim - 1)), v, jnp.nan)  # noqa: E731
+        return dict(
+            tracking_ts=mask(track.ts),
+            o_position_m=mask(track.probes["o_position_m"]),
+            tracking_error_m=mask(track.probes["tracking_error_m"]),
+            true_tracking_error_m=mask(track.probes["true_tracking_error_m"]),
+            capture_time_s=o["capture_time_s"],
+            captured_position_m=o["captured_state"].position,
+            captured=o["captured"],
+            **passive_histories(o["passive"]),
         )
 
     def describe(self) -> dict:

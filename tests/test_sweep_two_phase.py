@@ -1,0 +1,140 @@
+"""Two-phase sweeps (paper section IV.B, ``jaxcable sweep --phase full``): each row against an
+independent single two-phase landing, the captured states of Table 5 against Table 8's ranges, and
+the histories behind the plots of Figs 15-20 against the rows and the descent's closed form.
+
+Cost (2 cores): one ``jaxcable sweep --phase full --plot`` of 3 cases (two compilations: the rows
+and the histories) and three single landings through :func:`run_two_phase` (one compilation).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import jaxcable.sweep as sweep_module
+from jaxcable.arresting.layout import CaptureState
+from jaxcable.arresting.two_phase import SCENARIO_SETTINGS, run_two_phase
+from jaxcable.arresting.uncertainty import UNCERTAIN_PARAMETERS, halton_samples, scenario_ranges
+from jaxcable.sweep import CAPTURED_PREFIX, case_key, read_sweep_csv, summarize_sweep, summary_markdown, sweep_main
+
+# scenario II (the shortest tracking phase, 6 s), seed 1 (so a histories run that ignored the
+# sweep's seed would draw other noise and gusts), 0.6 s after capture (still descending)
+SCENARIO, N, SEED, T_END = "II", 3, 1, 0.6
+
+
+@pytest.fixture(scope="module")
+def cli_run(tmp_path_factory):
+    """``jaxcable sweep --phase full --plot`` with the plots' histories kept (the plot functions
+    wrapped), so the tests check the histories the command line draws."""
+    d = tmp_path_factory.mktemp("two_phase_sweep")
+    kept = {}
+    originals = {name: getattr(sweep_module, name) for name in ("plot_tracking", "plot_histories")}
+
+    def keep(name):
+        def plot(histories, path, *args, **kwargs):
+            kept[name] = histories
+            return originals[name](histories, path, *args, **kwargs)
+
+        return plot
+
+    mp = pytest.MonkeyPatch()
+    for name in originals:
+        mp.setattr(sweep_module, name, keep(name))
+    argv = ["--phase", "full", "--scenario", SCENARIO, "--n", str(N), "--batch-size", str(N), "--t-end", str(T_END),
+            "--seed", str(SEED), "--out", str(d / "s.csv"), "--plot", str(d / "fig"), "--plot-cases", str(N), "--json"]  # fmt: skip
+    stdout = io.StringIO()
+    try:
+        with contextlib.redirect_stdout(stdout):
+            rc = sweep_main(argv)
+    finally:
+        mp.undo()
+    return rc, json.loads(stdout.getvalue()), read_sweep_csv(d / "s.csv"), kept
+
+
+def test_rows_equal_single_two_phase_landings(cli_run):
+    """Each row's capture (margin, time, tracking error, state of O) and passive criteria equal a
+    single landing by :func:`run_two_phase`, whose passive phase is built on the host from the
+    captured state (``run_landing``), not inside the vmapped case function."""
+    rc, summary, table, _ = cli_run
+    assert rc == 0 and summary["n_cases"] == N and summary["n_failed"] == 0
+    samples = halton_samples(N, SCENARIO, "full", SEED)
+    for i in range(N):
+        p = {k: samples[k][i] for k in UNCERTAIN_PARAMETERS}
+        run = run_two_phase(
+            CaptureState(**{k: float(p[k]) for k in UNCERTAIN_PARAMETERS[:10]}),
+            scenario=SCENARIO, fidelity="rigid", passive_t_end_s=T_END, motor_delay_s=p["motor_delay_s"],
+            noise_rms_m=p["noise_rms_m"], wind_speed_m_s=p["wind_speed_m_s"], wind_angle_deg=p["wind_angle_deg"],
+            gust_intensity=p["gust_intensity"], seed=case_key(SEED, p),
+        )  # fmt: skip
+        o = run.outputs
+        assert bool(table["captured"][i]) == bool(o["captured"])
+        # batched vs single: the same equations; roundoff moves the adaptive steps (as in test_sweep)
+        for name in ("capture_margin_m", "capture_time_s", "tracking_error_m", "z_max_m", "a_max_g", "sigma_max_mpa"):
+            assert table[name][i] == pytest.approx(o[name], rel=1e-5, abs=1e-7), (i, name)
+        for field, value in o["captured_state"].items():
+            # angles [deg] and rates [deg/s] near zero: an absolute floor far below their ranges
+            assert table[CAPTURED_PREFIX + field][i] == pytest.approx(value, rel=1e-5, abs=1e-6), (i, field)
+
+
+def test_captured_states_like_table5_beside_table8(cli_run):
+    """Table 5's quantities: the descent is held at h / t_c (Table 4); each state's range is set
+    beside Table 8's, which the paper says covers the captured states (section IV.C). Ours need not
+    stay inside it (the wind drives the lateral speed: here one case leaves at vx = -2.02 m/s,
+    Table 8 ends at 2; ``experiments/qmc_two_phase.py`` measures it over 100 cases a scenario), so
+    the flag is checked against the ranges, not asserted true."""
+    _, summary, table, _ = cli_run
+    s = SCENARIO_SETTINGS[SCENARIO]
+    np.testing.assert_allclose(table[CAPTURED_PREFIX + "vz_m_s"], -s["height_m"] / s["tracking_time_s"], atol=0.05)
+    states = summary["captured_states"]
+    assert list(states) == list(CaptureState.__dataclass_fields__)  # Table 3's order, z and vz added
+    table8 = scenario_ranges(SCENARIO, "passive")
+    for name in UNCERTAIN_PARAMETERS[:10]:
+        lo, hi = table8[name]
+        v = table[CAPTURED_PREFIX + name][table["captured"]]
+        assert states[name]["n"] == int(table["captured"].sum())
+        assert states[name]["table8_range"] == [lo, hi]
+        assert states[name]["within_table8"] == bool(lo <= v.min() and v.max() <= hi), (name, v, (lo, hi))
+        assert (states[name]["min"], states[name]["max"]) == (v.min(), v.max())
+    # the summary recomputed from the file is the one printed, and its table names Table 5
+    assert summarize_sweep(table)["captured_states"] == states
+    text = summary_markdown(summarize_sweep(table))
+    assert "like Table 5" in text
+    assert text.count("(exceeded)") == sum(not c.get("within_table8", True) for c in states.values())
+
+
+def test_histories_agree_with_rows_and_descend_at_h_over_tc(cli_run):
+    rc, summary, table, kept = cli_run
+    h, t_c = SCENARIO_SETTINGS[SCENARIO]["height_m"], SCENARIO_SETTINGS[SCENARIO]["tracking_time_s"]
+    tr, pa = kept["plot_tracking"], kept["plot_histories"]
+    assert tr is pa  # one histories batch feeds both plots
+    samples = halton_samples(N, SCENARIO, "full", SEED)
+    pos, ts = tr["o_position_m"], tr["tracking_ts"]
+    # the trajectory starts at the terminal-guidance point (x, y from the sample, z = h) ...
+    np.testing.assert_allclose(pos[:, 0, 0], samples["x_m"], atol=1e-9)
+    np.testing.assert_allclose(pos[:, 0, 1], samples["y_m"], atol=1e-9)
+    np.testing.assert_allclose(pos[:, 0, 2], h, atol=1e-9)
+    # ... and O descends at h / t_c (the guidance holds the descent; O moves with the CoM up to the
+    # slow rotation at rates below 0.1 deg/s over 6 s: millimetres)
+    ok = np.isfinite(ts)
+    np.testing.assert_allclose(pos[..., 2][ok], (h - h / t_c * ts)[ok], atol=5e-3)
+    # the histories' batch reproduces the rows: the tracking error at t_c / 2, the capture, and the
+    # maxima of the passive phase over the same saved grid (different batch programs: 1e-5 as above)
+    err_half = [np.interp(0.5 * t_c, t[np.isfinite(t)], e[np.isfinite(t)]) for t, e in zip(ts, tr["tracking_error_m"])]
+    np.testing.assert_allclose(err_half, table["tracking_error_m"], rtol=1e-5)
+    np.testing.assert_allclose(tr["capture_time_s"], table["capture_time_s"], rtol=1e-5)
+    for k, axis in enumerate("xyz"):
+        np.testing.assert_allclose(tr["captured_position_m"][:, k], table[f"{CAPTURED_PREFIX}{axis}_m"], rtol=1e-5, atol=1e-6)
+    np.testing.assert_array_equal(tr["captured"], table["captured"])
+    np.testing.assert_allclose(np.nanmax(pa["drop_m"], axis=1), table["z_max_m"], rtol=1e-5)
+    np.testing.assert_allclose(np.nanmax(pa["stress_max_mpa"], axis=1), table["sigma_max_mpa"], rtol=1e-5)
+    # the trajectory's saved samples end before capture, the last within one save interval of it
+    last = np.nanmax(ts, axis=1)
+    assert np.all(last <= table["capture_time_s"]) and np.all(table["capture_time_s"] - last <= 1.5 * t_c / 200 + 1e-9)
+    plots = summary["plots"]
+    assert [Path(p).name for p in plots] == ["fig_plane.png", "fig_tracking.png", "fig_histories.png"]
+    assert all(Path(p).stat().st_size > 10_000 for p in plots)
