@@ -1657,6 +1657,11 @@ def design_main(argv: list[str] | None = None) -> int:
         before=before,
         after=after,
         best_step=best["step"],
+        # what the optimiser itself reached (it minimises the objective, not the success rate)
+        lowest_objective=dict(
+            step=hist.best, objective=float(hist.objective[hist.best]), success_rate=float(hist.success_rate[hist.best]),
+            design=problem.space.as_dict(hist.x[hist.best]),
+        ),
         history=dict(objective=hist.objective.tolist(), success_rate=hist.success_rate.tolist()),
         wall_s=wall,
         phase=problem.phase,
@@ -1670,6 +1675,12 @@ def design_main(argv: list[str] | None = None) -> int:
         _print_report("before (start design)", before)
         what = f"{args.steps} adam steps" if args.optimizer == "adam" else f"{len(hist.objective)} L-BFGS evaluations"
         _print_report(f"after (best of {what}: step {best['step']}, the lowest objective among the highest success rate)", after)
+        low = out["lowest_objective"]
+        if low["step"] != best["step"]:
+            print(
+                f"  the lowest objective, J = {low['objective']:.5f}, came at step {low['step']} with success rate "
+                f"{100 * low['success_rate']:.1f}%: " + ", ".join(f"{k} = {v:.6g}" for k, v in low["design"].items())
+            )
         print(f"  wall time {wall:.1f} s (includes compiling)")
     return 0
 

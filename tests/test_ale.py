@@ -143,7 +143,13 @@ def test_pinned_cable_statics_matches_elastic_catenary():
         if float(jnp.max(jnp.abs(dx))) < 1e-11:
             break
     F, _ = res_jac(x)
-    assert float(jnp.max(jnp.abs(F))) < 1e-10
+    # The residual's round-off floor: an element force EA (t.t - 1) / 2 with t = (r_j+1 - r_j) / h
+    # carries ~eps (|r| / h) relative error in t.t, so EA eps |r| / h [N], over the scale w L0. It is
+    # 2.0e-10 here. The test asked for 1e-10 and passed on earlier machines; on an AMD EPYC the
+    # converged residual (Newton steps < 1e-11 m) is 1.3e-10: rounding differs between CPUs.
+    # Ten times the floor: 2e-9. The sag and tension checks below are what the test is for.
+    floor = float(cable.EA_N) * np.finfo(float).eps * (span / (L0 / (n - 1))) / (w * L0)
+    assert float(jnp.max(jnp.abs(F))) < 10 * floor, (float(jnp.max(jnp.abs(F))), floor)
     r = r0.at[1:-1].set(x.reshape(n - 2, 3))
     sag = -float(r[n // 2, 2])
     # Discretisation: the consistent load is half an element's weight per node (a hanging chain),

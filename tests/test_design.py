@@ -205,6 +205,10 @@ def test_cli_json(problem, at_paper, capsys):
     assert out["best_step"] == best
     assert out["after"]["objective"] == pytest.approx(hist[best], rel=1e-12)
     assert out["after"]["criteria"]["success_rate"] == pytest.approx(rate.max())
+    # and what the optimiser reached: the lowest objective of the history, with its design
+    low = out["lowest_objective"]
+    assert low["step"] == int(np.argmin(hist)) and low["objective"] == hist.min()
+    assert low["success_rate"] == rate[low["step"]] and list(low["design"]) == ["m_w", "F_f"]
 
 
 def test_bad_input_gets_clear_errors(capsys):
