@@ -12,8 +12,9 @@ How a sweep is built (physics stays single-case, STYLE.md 3):
   ``case_fn(params: dict[str, scalar]) -> dict[str, scalar]``. It is an ``eqx.Module`` (its array
   fields, e.g. the buffer device, are parameters too). :class:`PassiveCaseFunction` runs the
   passive-deceleration phase; the two-phase case function
-  (:class:`jaxcable.arresting.two_phase.TwoPhaseCaseFunction`, tracking, capture and passive phase
-  at the ``rigid`` level) registers itself for ``phase="full"`` with :func:`register_case_fn`.
+  (:class:`jaxcable.arresting.two_phase.TwoPhaseCaseFunction`: tracking, capture and the passive
+  phase at the case function's level) registers itself for ``phase="full"`` with
+  :func:`register_case_fn`.
 * :func:`run_sweep` lifts it with ``jax.vmap`` over chunks of ``batch_size`` cases; each chunk is
   sharded over the local devices (a 1-D ``Mesh``, ``NamedSharding`` on the case axis, the chunk
   padded to a multiple of the device count) and run under ``jax.shard_map``, so each device
@@ -1097,7 +1098,7 @@ def _build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--scenario", choices=SCENARIOS, default="I", help="wind scenario of Table 4 (default I)")
     p.add_argument("--n", type=positive_int("--n"), default=100, help="number of Halton cases (default 100, as the paper)")
-    p.add_argument("--phase", choices=PHASES, default="passive", help="passive: from capture (Table 8 states); full: two-phase, tracking from the terminal-guidance point (Table 3 states), capture, passive phase (rigid level)")
+    p.add_argument("--phase", choices=PHASES, default="passive", help="passive: from capture (Table 8 states); full: two-phase, tracking from the terminal-guidance point (Table 3 states), capture, passive phase at --fidelity")
     p.add_argument(
         "--fidelity",
         choices=SWEEP_FIDELITIES,

@@ -149,15 +149,18 @@ def test_process_indices_cover_every_case_once():
         process_indices(n, 4, 4)
 
 
-def test_full_phase_registered_at_the_rigid_level_only(tmp_path, capsys):
+def test_full_phase_registered_at_every_sweep_level(tmp_path, capsys):
     # the two-phase case function registers itself on first use of phase "full"; its ale/full
-    # levels mesh cables on the host from the captured state, so sweeps refuse them clearly
-    assert type(case_fn_for("full", "rigid")).__name__ == "TwoPhaseCaseFunction"
-    with pytest.raises(ValueError, match="rigid"):
-        case_fn_for("full", "ale")
+    # levels mesh cables on the host from the captured state (tests/test_sweep_two_phase.py runs one)
+    for level in ("rigid", "ale", "full"):
+        fn = case_fn_for("full", level)
+        assert type(fn).__name__ == "TwoPhaseCaseFunction" and fn.host_build == (level != "rigid")
+    with pytest.raises(ValueError, match="fidelity"):
+        case_fn_for("full", "1dof")
     out = tmp_path / "never.csv"
-    assert sweep_main(["--phase", "full", "--fidelity", "ale", "--n", "2", "--out", str(out), "--json"]) == 2
-    assert "rigid" in capsys.readouterr().err and not out.exists()
+    # the two-phase tracking runs at fixed settings: the passive phase's solver options are refused
+    assert sweep_main(["--phase", "full", "--rtol", "1e-5", "--n", "2", "--out", str(out), "--json"]) == 2
+    assert "--rtol" in capsys.readouterr().err and not out.exists()
 
 
 # ------------------------------------------------------------------------------------------------

@@ -61,7 +61,9 @@ printed 1; we keep the printed value (``TrackingController.motor_bandwidth_per_s
 
 Phase 2 at levels ``ale`` and ``full`` meshes its cables with NumPy from the concrete capture state,
 so :func:`run_two_phase` runs the phases one after the other (phase 1 compiled, phase 2 built on the
-host); :func:`two_phase_outputs` (one traced function, for vmap and gradients) is the ``rigid`` level.
+host), and so does the sweeps' :class:`TwoPhaseCaseFunction` at those levels (phase 1 and the mesh
+per case on the host, the passive phases vmapped over a chunk); :func:`two_phase_outputs` (one
+traced function, for vmap and gradients) is the ``rigid`` level.
 """
 
 from __future__ import annotations
@@ -364,20 +366,30 @@ def two_phase_outputs(
     phase's maxima are taken on the passive scene's default grid, one sample per
     :data:`~jaxcable.arresting.passive.SAVE_SPACING_S` (1 ms; ``passive_kwargs`` may set
     ``save_spacing_s`` or ``n_save``), as in :func:`run_two_phase` and ``jaxcable land``."""
-    from ..simulate import simulate
-    from .landing import LEVEL_DEFAULTS, LEVEL_STEP_CONTROL
-
     check_choice("fidelity", fidelity, ("rigid",))
     track, out1 = tracking_outputs(scene, tracking_tolerance_m, margin_width_m, adjoint)
     capture, centre = out1["captured_state"], out1["frame_centre_at_capture_m"]
-    solver, rtol, atol, steps = (solver_settings or {}).get(fidelity, LEVEL_DEFAULTS[fidelity])
     passive = passive_landing_scene(
         fidelity, capture, scene.layout, buffer, frame_centre_xy=centre, t_end_s=passive_t_end_s,
         **_air_kwargs(scene, out1, passive_air), **(passive_kwargs or {}),
     )  # fmt: skip
+    land, out = _passive_phase(out1, passive, fidelity, passive_t_end_s, criteria, solver_settings, adjoint)
+    if keep_histories:
+        out["tracking"] = track
+        out["passive"] = land
+    return out
+
+
+def _passive_phase(out1, passive, fidelity, t_end_s, criteria, solver_settings=None, adjoint=None):
+    """Phase 2 on its built scene ``passive`` with the level's solver and step control: its Result
+    and phase 1's outputs ``out1`` joined with the passive outputs, the smooth maxima and ``landed``."""
+    from ..simulate import simulate
+    from .landing import LEVEL_DEFAULTS, LEVEL_STEP_CONTROL
+
+    solver, rtol, atol, steps = (solver_settings or {}).get(fidelity, LEVEL_DEFAULTS[fidelity])
     pcoeff, icoeff = LEVEL_STEP_CONTROL[fidelity]
     land = simulate(
-        passive, passive_t_end_s, solver=solver, rtol=rtol, atol=atol, max_steps=steps, adjoint=adjoint,
+        passive, t_end_s, solver=solver, rtol=rtol, atol=atol, max_steps=steps, adjoint=adjoint,
         pcoeff=pcoeff, icoeff=icoeff,
     )  # fmt: skip
     hard = landing_outputs(land.ts, land.probes, land.status, criteria)
@@ -390,10 +402,21 @@ def two_phase_outputs(
         **{f"smooth_{k}": v for k, v in smooth.items()},
     )
     out["landed"] = out1["captured"] & out1["tracking_ok"] & hard["criteria_met"]
-    if keep_histories:
-        out["tracking"] = track
-        out["passive"] = land
-    return out
+    return land, out
+
+
+def _tracking_histories(track) -> dict:
+    """The tracking phase's saved histories (Figs 15-17) from its Result: ``tracking_ts`` [s],
+    ``o_position_m`` (n, 3) [m], ``tracking_error_m`` and ``true_tracking_error_m`` [m]; NaN after
+    capture."""
+    finite = jnp.isfinite(track.ts)
+    mask = lambda v: jnp.where(finite.reshape((-1,) + (1,) * (jnp.ndim(v) - 1)), v, jnp.nan)  # noqa: E731
+    return dict(
+        tracking_ts=mask(track.ts),
+        o_position_m=mask(track.probes["o_position_m"]),
+        tracking_error_m=mask(track.probes["tracking_error_m"]),
+        true_tracking_error_m=mask(track.probes["true_tracking_error_m"]),
+    )
 
 
 def _passive_kwargs(scene, out1, passive_air=True):
@@ -501,9 +524,16 @@ def run_two_phase(
 
 
 class TwoPhaseCaseFunction(AbstractCaseFunction):
-    """One two-phase case for :mod:`jaxcable.sweep` (``phase="full"``, level ``rigid``): the 15
-    uncertain parameters of Table 2 -> scalar outputs. The noise and gust seeds are derived from the
-    sweep's seed and the case's inputs, so a case reproduces wherever it sits in a batch."""
+    """One two-phase case for :mod:`jaxcable.sweep` (``phase="full"``): the 15 uncertain parameters
+    of Table 2 -> scalar outputs. The noise and gust seeds are derived from the sweep's seed and the
+    case's inputs, so a case reproduces wherever it sits in a batch.
+
+    At the ``rigid`` level both phases are one traced function (:func:`two_phase_outputs`), vmapped
+    over the cases. The ``ale`` and ``full`` levels mesh their cables with NumPy from the concrete
+    captured state, so they build each case on the host (``host_build``): :meth:`build` runs the
+    tracking phase of that case (compiled once) and meshes its passive scene, and the sweep vmaps
+    :meth:`solve` (the passive phase) over the stacked scenes. The tracking phase is the rigid
+    rocket's at every level (see the module docstring)."""
 
     buffer: BufferDevice
     layout: ArrestingLayout
@@ -519,11 +549,11 @@ class TwoPhaseCaseFunction(AbstractCaseFunction):
 
     def __check_init__(self):
         check_positive("cable_damping_s", self.cable_damping_s, allow_zero=True)
-        if self.fidelity != "rigid":
-            raise ValueError(
-                f"fidelity {self.fidelity!r}: two-phase sweeps run at fidelity 'rigid' (the ale/full "
-                "levels mesh their cables on the host from the captured state: use run_two_phase per case)"
-            )
+        check_choice("fidelity", self.fidelity, ("rigid", "ale", "full"))
+
+    @property
+    def host_build(self) -> bool:
+        return self.fidelity != "rigid"
 
     @property
     def per_device_loops(self) -> bool:
@@ -551,12 +581,42 @@ class TwoPhaseCaseFunction(AbstractCaseFunction):
             keep_histories=keep_histories,
         )  # fmt: skip
 
+    def build(self, params):
+        """Host side of an ``ale``/``full`` case: phase 1 (compiled, single case), then the passive
+        scene meshed from the concrete captured state. Returns ``(phase-1 outputs, tracking
+        histories, passive scene)``, which the sweep stacks over a chunk's cases."""
+        scene = self.scene(params)
+        track, out1 = _tracking_jit(scene)
+        passive = passive_landing_scene(
+            self.fidelity, buffer=self.buffer, t_end_s=self.t_end_s, cable_damping_s=self.cable_damping_s,
+            **_passive_kwargs(scene, out1),
+        )  # fmt: skip
+        return out1, _tracking_histories(track), passive
+
+    def solve(self, case):
+        """The passive phase of a built case (traced, vmapped by the sweep): the row of :meth:`__call__`."""
+        return self._row(self._solve(case)[1])
+
+    def solve_histories(self, case):
+        land, o = self._solve(case)
+        return dict(case[1], **self._capture_histories(o), **passive_histories(land))
+
+    def _solve(self, case):
+        import diffrax
+
+        out1, _, passive = case
+        return _passive_phase(out1, passive, self.fidelity, self.t_end_s, self.criteria, adjoint=diffrax.ForwardMode())
+
     def __call__(self, params):
         """One row: success flags, criteria and margins, the capture margin, the tracking error at
         ``t_c / 2`` and at capture [m], the capture time [s], and the state of O at capture
         (``captured_x_m`` ... ``captured_omega_z_deg_s``, the fields of :class:`CaptureState`:
         Table 5's quantities)."""
-        o = self._outputs(params)
+        if self.host_build:
+            return self.solve(self.build(params))
+        return self._row(self._outputs(params))
+
+    def _row(self, o):
         capture = o["captured_state"]
         return dict(
             captured=o["captured"],
@@ -579,20 +639,14 @@ class TwoPhaseCaseFunction(AbstractCaseFunction):
         ``true_tracking_error_m`` [m], against the measured and the true target; NaN after
         capture), ``capture_time_s``, ``captured_position_m`` (3,), ``captured``, and the passive
         phase's histories (:func:`jaxcable.sweep.passive_histories`: time since capture)."""
+        if self.host_build:
+            return self.solve_histories(self.build(params))
         o = self._outputs(params, keep_histories=True)
-        track = o["tracking"]
-        finite = jnp.isfinite(track.ts)
-        mask = lambda v: jnp.where(finite.reshape((-1,) + (1,) * (v.ndim - 1)), v, jnp.nan)  # noqa: E731
-        return dict(
-            tracking_ts=mask(track.ts),
-            o_position_m=mask(track.probes["o_position_m"]),
-            tracking_error_m=mask(track.probes["tracking_error_m"]),
-            true_tracking_error_m=mask(track.probes["true_tracking_error_m"]),
-            capture_time_s=o["capture_time_s"],
-            captured_position_m=o["captured_state"].position,
-            captured=o["captured"],
-            **passive_histories(o["passive"]),
-        )
+        return dict(_tracking_histories(o["tracking"]), **self._capture_histories(o), **passive_histories(o["passive"]))
+
+    @staticmethod
+    def _capture_histories(o):
+        return dict(capture_time_s=o["capture_time_s"], captured_position_m=o["captured_state"].position, captured=o["captured"])
 
     def describe(self) -> dict:
         return dict(type="TwoPhaseCaseFunction", scenario=self.scenario, fidelity=self.fidelity, seed=self.seed,
