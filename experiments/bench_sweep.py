@@ -10,6 +10,11 @@ Throughput of :func:`jaxcable.sweep.run_qmc_sweep` (passive phase, Table 8 range
 (3) The paper-style statistics of 100 cases of scenario I at the rigid level (Tables 7 and 9,
     Figs 18-21), on 2 devices, with plots; the sampled wind and gusts load the free rocket after
     capture (seeded per case).
+(4) ``two_phase`` / ``two_phase_ale``: the two-phase sweep (``phase="full"``, scenario I: tracking
+    from Table 3's states, capture, passive phase) at the rigid level (batch sizes 1, 8, 32, t_end
+    2 s) and at the ale level (batch 2, t_end ``--ale-t-end``), on 1 and 2 devices. The capture
+    event's root find does not trace under ``shard_map``, so on several devices the sweep runs one
+    vmapped call per device on its slice of the chunk, each from its own thread.
 
 Each configuration runs in a fresh subprocess (the device count is fixed when JAX starts). In it
 the sweep is called twice on fresh CSV files with identical shapes: *first* = compile + run,
@@ -21,6 +26,7 @@ Writes ``experiments/results/bench_sweep.{json,md}`` and ``bench_sweep_{plane,hi
     python experiments/bench_sweep.py            # ~15 min on 2 busy cores
     python experiments/bench_sweep.py --quick    # a few minutes; experiments/out/bench_sweep_quick/
     python experiments/bench_sweep.py --replot   # rewrite the .md from the .json
+    python experiments/bench_sweep.py --sections two_phase two_phase_ale --keep   # rerun sections, keep the rest
 """
 
 from __future__ import annotations
@@ -40,7 +46,9 @@ ROOT = Path(__file__).resolve().parent.parent
 def parse_args(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--quick", action="store_true", help="small batches only, results in experiments/out/")
-    p.add_argument("--sections", nargs="+", default=["rigid", "ale", "full", "paper"], choices=["rigid", "ale", "full", "paper"])
+    p.add_argument("--sections", nargs="+", default=["rigid", "ale", "full", "two_phase", "two_phase_ale", "paper"],
+                   choices=["rigid", "ale", "full", "two_phase", "two_phase_ale", "paper"])  # fmt: skip
+    p.add_argument("--keep", action="store_true", help="keep the stored results of the sections not rerun")
     p.add_argument("--batch-sizes", nargs="+", type=int, default=[1, 8, 32, 128])
     p.add_argument("--devices", nargs="+", type=int, default=[1, 2])
     p.add_argument("--ale-t-end", type=float, default=0.3)
@@ -75,11 +83,13 @@ def worker(job: dict) -> dict:
     if job["kind"] == "throughput":
         for b in job["batch_sizes"]:
             n = max(b, job["min_cases"])
-            kw = dict(scenario="I", n=n, fidelity=job["fidelity"], batch_size=b, t_end_s=job["t_end_s"])
+            phase = job.get("phase", "passive")
+            kw = dict(scenario="I", n=n, phase=phase, fidelity=job["fidelity"], batch_size=b, t_end_s=job["t_end_s"])
             _, first, load_first = sweep(f"first_{b}", **kw)
             table, run, load_run = sweep(f"run_{b}", **kw)
             out["results"].append(
                 dict(
+                    phase=phase,
                     fidelity=job["fidelity"],
                     devices=jax.device_count(),
                     batch_size=b,
@@ -151,12 +161,17 @@ def write_md(data: dict, path: Path):
         "",
     ]
     rows = [r for r in data.get("throughput", [])]
-    for fid in ("rigid", "ale", "full"):
-        sel = [r for r in rows if r["fidelity"] == fid]
+    groups = [("passive", f) for f in ("rigid", "ale", "full")] + [("full", f) for f in ("rigid", "ale", "full")]
+    for phase, fid in groups:
+        sel = [r for r in rows if r["fidelity"] == fid and r.get("phase", "passive") == phase]
         if not sel:
             continue
+        what = (
+            f"## {fid} level (t_end {sel[0]['t_end_s']:g} s)" if phase == "passive" else
+            f"## Two-phase, {fid} level (scenario I: 10 s of tracking from Table 3 states, then t_end {sel[0]['t_end_s']:g} s)"
+        )  # fmt: skip
         lines += [
-            f"## {fid} level (t_end {sel[0]['t_end_s']:g} s)",
+            what,
             "",
             "| devices | batch | cases | run [s] | cases/s | s/case | speed-up | compile [s] | steps mean / max | failed | load (1 min) |",
             "|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---|",
@@ -232,6 +247,21 @@ def main(argv=None):
     data["notes"] = [
         "The machine is shared with other developers: the run times carry their load (see the load column).",
     ]
+    rerun = {("passive" if s in ("rigid", "ale", "full") else "full", {"two_phase": "rigid", "two_phase_ale": "ale"}.get(s, s)) for s in args.sections}
+    if args.keep and json_path.exists():
+        # keep the stored sections that this run does not redo (each keeps its own machine line in
+        # the notes: they may come from another session)
+        old = json.loads(json_path.read_text())
+        kept = [r for r in old.get("throughput", []) if (r.get("phase", "passive"), r["fidelity"]) not in rerun]
+        data["throughput"] = kept
+        if "paper" not in args.sections:
+            data["paper"], data["paper_devices"] = old.get("paper", []), old.get("paper_devices")
+        if kept or data["paper"]:
+            data["notes"].append(
+                f"Sections not rerun on {data['started']} are kept from the run of {old.get('started')} "
+                f"(machine: {old['machine']['processor']}, JAX {old['machine']['jax']}, load at its start "
+                f"{old['machine']['load_average_1_5_15_min']})."
+            )
 
     def save():
         data["wall_s"] = time.perf_counter() - t0
@@ -250,6 +280,14 @@ def main(argv=None):
             continue
         for d in args.devices:
             job = dict(kind="throughput", fidelity=level, batch_sizes=[2], min_cases=2, t_end_s=0.1 if args.quick else args.ale_t_end)
+            data["throughput"] += run_worker(job, d)["results"]
+            save()
+    for section, level, t_end, sizes in (("two_phase", "rigid", 2.0, [1, 8] if args.quick else [1, 8, 32]),
+                                          ("two_phase_ale", "ale", 0.1 if args.quick else args.ale_t_end, [2])):  # fmt: skip
+        if section not in args.sections:
+            continue
+        for d in args.devices:
+            job = dict(kind="throughput", phase="full", fidelity=level, batch_sizes=sizes, min_cases=max(sizes) if level == "ale" else (8 if args.quick else 32), t_end_s=t_end)
             data["throughput"] += run_worker(job, d)["results"]
             save()
     if "paper" in args.sections:

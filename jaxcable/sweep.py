@@ -18,7 +18,9 @@ How a sweep is built (physics stays single-case, STYLE.md 3):
 * :func:`run_sweep` lifts it with ``jax.vmap`` over chunks of ``batch_size`` cases; each chunk is
   sharded over the local devices (a 1-D ``Mesh``, ``NamedSharding`` on the case axis, the chunk
   padded to a multiple of the device count) and run under ``jax.shard_map``, so each device
-  integrates its own cases in its own ``while`` loop (no cross-device step synchronisation).
+  integrates its own cases in its own ``while`` loop (no cross-device step synchronisation). A
+  case function that cannot run under ``shard_map`` (``per_device_loops`` False: the two-phase
+  one) gets one vmapped call per device on its slice instead, each from its own thread.
 * Rows are appended to a tidy CSV as each chunk finishes (whole lines, flush, fsync) with a sidecar
   JSON holding the sweep's identity; a restarted sweep drops a trailing partial line, skips the cases
   already written, and refuses to resume when its arguments differ. A case whose solver did not
@@ -160,7 +162,9 @@ class AbstractCaseFunction(eqx.Module):
 
     @property
     def per_device_loops(self) -> bool:
-        """Run each device's share under ``shard_map`` (its own solver loop) when several devices."""
+        """On several devices: True runs each device's share under ``shard_map`` (its own solver
+        loop); False (a solve that does not trace under ``shard_map``) one call per device on its
+        share, each from its own thread."""
         return True
 
     def __call__(self, params: dict) -> dict:
@@ -429,10 +433,7 @@ def _sharded_impl(case_fn, batch, mesh, method):
     # replicated ones (constants), which the varying-axes type check rejects; the body has no
     # collectives, so there is nothing for the check to protect.
     P = jax.sharding.PartitionSpec
-    if mesh.devices.size == 1 or not case_fn.per_device_loops:
-        # one device, or a case function whose solve does not trace under shard_map (diffrax's
-        # event root find closure-converts its function, which shard_map's tracing rejects): a plain
-        # vmap; with several devices the batch's input sharding lets XLA partition it (GSPMD).
+    if mesh.devices.size == 1:
         return jax.vmap(getattr(case_fn, method))(batch)
     fn_dynamic, fn_static = eqx.partition(case_fn, eqx.is_array)
     batch_dynamic, batch_static = eqx.partition(batch, eqx.is_array)
@@ -470,10 +471,40 @@ def _evaluate(case_fn, params: dict, mesh, size: int, method="__call__") -> dict
         method = {"__call__": "solve", "histories": "solve_histories"}[method]
     else:
         batch = padded
-    sharding = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec(_AXIS))
-    batch = jax.tree_util.tree_map(lambda x: jax.device_put(x, sharding) if eqx.is_array(x) else x, batch)
-    out = _sharded(case_fn, batch, mesh, method)
+    if mesh.devices.size > 1 and not case_fn.per_device_loops:
+        out = _per_device(case_fn, batch, list(mesh.devices.flat), method)
+    else:
+        sharding = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec(_AXIS))
+        batch = jax.tree_util.tree_map(lambda x: jax.device_put(x, sharding) if eqx.is_array(x) else x, batch)
+        out = _sharded(case_fn, batch, mesh, method)
     return {name: np.asarray(v)[:k] for name, v in out.items()}
+
+
+_vmapped = eqx.filter_jit(lambda case_fn, batch, method: jax.vmap(getattr(case_fn, method))(batch))
+
+
+def _per_device(case_fn, batch, devices, method) -> dict:
+    """One vmapped call per device on its equal slice of the batch, each from its own thread, so
+    each device steps its own cases in its own ``while`` loop, concurrently. For case functions that
+    cannot run under ``shard_map`` (``per_device_loops`` False): one call over the batch sharded
+    across the devices makes XLA partition the loop, whose step-size control then waits for every
+    device at every step (measured slower than one device). Threads, not asynchronous dispatch: a
+    call of these solves returns only when it has finished (measured: two calls dispatched in turn
+    took the sum of their times, from two threads the time of one). One compilation per device."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    size = len(jax.tree_util.tree_leaves(eqx.filter(batch, eqx.is_array))[0])
+    per = size // len(devices)
+
+    def run(d):
+        part = jax.tree_util.tree_map(
+            lambda x: jax.device_put(x[d * per : (d + 1) * per], devices[d]) if eqx.is_array(x) else x, batch
+        )
+        return {name: np.asarray(v) for name, v in _vmapped(case_fn, part, method).items()}
+
+    with ThreadPoolExecutor(len(devices)) as pool:
+        outs = list(pool.map(run, range(len(devices))))
+    return {name: np.concatenate([o[name] for o in outs]) for name in outs[0]}
 
 
 def _round_up(a, b):

@@ -405,6 +405,52 @@ _KILL_SCRIPT = textwrap.dedent(
 )
 
 
+class NoShardMapDecay(DecayCase):
+    """The toy cases as a case function that does not run under ``shard_map`` (as the two-phase one,
+    whose event root find does not trace there): on several devices the sweep gives each device its
+    own slice and call."""
+
+    @property
+    def per_device_loops(self):
+        return False
+
+
+_PER_DEVICE_SCRIPT = textwrap.dedent(
+    """
+    import json, sys
+    import jaxcable.sweep as sweep
+    from test_sweep import NoShardMapDecay, decay_samples
+    seen, vmapped = [], sweep._vmapped
+    def spy(case_fn, part, method):
+        seen.append(sorted(d.id for d in part["k"].devices()))
+        return vmapped(case_fn, part, method)
+    sweep._vmapped = spy
+    sweep.run_sweep(NoShardMapDecay(), decay_samples(12), sys.argv[1], batch_size=8, progress=False)
+    print(json.dumps(seen))
+    """
+)
+
+
+def test_per_device_calls_without_shard_map(tmp_path):
+    """On 4 devices a case function without per-device loops runs one call per device on its own
+    slice (each chunk of 8: 4 calls of 2 cases), and the rows equal a 1-device run's."""
+    out = tmp_path / "per_device.csv"
+    proc = subprocess.run([sys.executable, "-c", _PER_DEVICE_SCRIPT, str(out)], env=_env(**FOUR_DEVICES),
+                          capture_output=True, text=True, timeout=300)  # fmt: skip
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    seen = json.loads(proc.stdout.strip().splitlines()[-1])
+    # two chunks, each as four calls on one device each (the threads may start them in any order)
+    assert sorted(map(tuple, seen)) == sorted([(d,) for d in range(4)] * 2)
+    one = run_sweep(DecayCase(), decay_samples(12), tmp_path / "one.csv", batch_size=8, progress=False)
+    four = read_sweep_csv(out)
+    ok = ~one["failed"]
+    for name in one:
+        if one[name].dtype.kind == "f":  # roundoff only (as in test_kill_and_resume)
+            np.testing.assert_allclose(four[name][ok], one[name][ok], rtol=1e-12, atol=1e-14, equal_nan=True, err_msg=name)
+        else:
+            np.testing.assert_array_equal(four[name], one[name], err_msg=name)
+
+
 def test_failed_cases_are_rows_with_their_status(tmp_path):
     table = run_sweep(DecayCase(), decay_samples(12), tmp_path / "toy.csv", batch_size=4, progress=False)
     ok = ~table["failed"]
