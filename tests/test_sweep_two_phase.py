@@ -65,6 +65,17 @@ def cli_run(tmp_path_factory):
     return rc, json.loads(stdout.getvalue()), read_sweep_csv(d / "s.csv"), kept
 
 
+def _single_landing(samples, i, fidelity, t_end_s) -> dict:
+    """Case ``i`` of a sweep's samples as one :func:`run_two_phase` landing (same noise and gust keys)."""
+    p = {k: samples[k][i] for k in UNCERTAIN_PARAMETERS}
+    return run_two_phase(
+        CaptureState(**{k: float(p[k]) for k in UNCERTAIN_PARAMETERS[:10]}),
+        scenario=SCENARIO, fidelity=fidelity, passive_t_end_s=t_end_s, motor_delay_s=p["motor_delay_s"],
+        noise_rms_m=p["noise_rms_m"], wind_speed_m_s=p["wind_speed_m_s"], wind_angle_deg=p["wind_angle_deg"],
+        gust_intensity=p["gust_intensity"], seed=case_key(SEED, p),
+    ).outputs  # fmt: skip
+
+
 def test_rows_equal_single_two_phase_landings(cli_run):
     """Each row's capture (margin, time, tracking error, state of O) and passive criteria equal a
     single landing by :func:`run_two_phase`, whose passive phase is built on the host from the
@@ -73,14 +84,7 @@ def test_rows_equal_single_two_phase_landings(cli_run):
     assert rc == 0 and summary["n_cases"] == N and summary["n_failed"] == 0
     samples = halton_samples(N, SCENARIO, "full", SEED)
     for i in range(N):
-        p = {k: samples[k][i] for k in UNCERTAIN_PARAMETERS}
-        run = run_two_phase(
-            CaptureState(**{k: float(p[k]) for k in UNCERTAIN_PARAMETERS[:10]}),
-            scenario=SCENARIO, fidelity="rigid", passive_t_end_s=T_END, motor_delay_s=p["motor_delay_s"],
-            noise_rms_m=p["noise_rms_m"], wind_speed_m_s=p["wind_speed_m_s"], wind_angle_deg=p["wind_angle_deg"],
-            gust_intensity=p["gust_intensity"], seed=case_key(SEED, p),
-        )  # fmt: skip
-        o = run.outputs
+        o = _single_landing(samples, i, "rigid", T_END)
         assert bool(table["captured"][i]) == bool(o["captured"])
         # batched vs single: the same equations; roundoff moves the adaptive steps (as in test_sweep)
         for name in ("capture_margin_m", "capture_time_s", "tracking_error_m", "z_max_m", "a_max_g", "sigma_max_mpa"):
@@ -160,14 +164,7 @@ def test_ale_level_rows_equal_single_two_phase_landings(tmp_path):
     assert not table["failed"].any() and table["captured"].all()
     samples = halton_samples(2, SCENARIO, "full", SEED)
     for i in range(2):
-        p = {k: samples[k][i] for k in UNCERTAIN_PARAMETERS}
-        run = run_two_phase(
-            CaptureState(**{k: float(p[k]) for k in UNCERTAIN_PARAMETERS[:10]}),
-            scenario=SCENARIO, fidelity="ale", passive_t_end_s=t_end, motor_delay_s=p["motor_delay_s"],
-            noise_rms_m=p["noise_rms_m"], wind_speed_m_s=p["wind_speed_m_s"], wind_angle_deg=p["wind_angle_deg"],
-            gust_intensity=p["gust_intensity"], seed=case_key(SEED, p),
-        )  # fmt: skip
-        o = run.outputs
+        o = _single_landing(samples, i, "ale", t_end)
         for name in ("capture_margin_m", "capture_time_s", "z_max_m", "a_max_g", "sigma_max_mpa"):
             # measured: equal to 3e-9 (the same steps, rounding in the vmapped contact sums); the
             # ale level's tolerance, 1e-4, would allow more if the step sequences parted
