@@ -474,13 +474,15 @@ def _evaluate(case_fn, params: dict, mesh, size: int, method="__call__") -> dict
     if mesh.devices.size > 1 and not case_fn.per_device_loops:
         out = _per_device(case_fn, batch, list(mesh.devices.flat), method)
     else:
-        sharding = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec(_AXIS))
-        batch = jax.tree_util.tree_map(lambda x: jax.device_put(x, sharding) if eqx.is_array(x) else x, batch)
-        out = _sharded(case_fn, batch, mesh, method)
+        out = _on_mesh(case_fn, batch, mesh, method)
     return {name: np.asarray(v)[:k] for name, v in out.items()}
 
 
-_vmapped = eqx.filter_jit(lambda case_fn, batch, method: jax.vmap(getattr(case_fn, method))(batch))
+def _on_mesh(case_fn, batch, mesh, method) -> dict:
+    """The batch placed along the mesh's case axis and run (:func:`_sharded_impl`)."""
+    sharding = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec(_AXIS))
+    batch = jax.tree_util.tree_map(lambda x: jax.device_put(x, sharding) if eqx.is_array(x) else x, batch)
+    return _sharded(case_fn, batch, mesh, method)
 
 
 def _per_device(case_fn, batch, devices, method) -> dict:
@@ -497,10 +499,8 @@ def _per_device(case_fn, batch, devices, method) -> dict:
     per = size // len(devices)
 
     def run(d):
-        part = jax.tree_util.tree_map(
-            lambda x: jax.device_put(x[d * per : (d + 1) * per], devices[d]) if eqx.is_array(x) else x, batch
-        )
-        return {name: np.asarray(v) for name, v in _vmapped(case_fn, part, method).items()}
+        part = jax.tree_util.tree_map(lambda x: x[d * per : (d + 1) * per] if eqx.is_array(x) else x, batch)
+        return {name: np.asarray(v) for name, v in _on_mesh(case_fn, part, _mesh([devices[d]]), method).items()}
 
     with ThreadPoolExecutor(len(devices)) as pool:
         outs = list(pool.map(run, range(len(devices))))

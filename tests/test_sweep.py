@@ -420,11 +420,11 @@ _PER_DEVICE_SCRIPT = textwrap.dedent(
     import json, sys
     import jaxcable.sweep as sweep
     from test_sweep import NoShardMapDecay, decay_samples
-    seen, vmapped = [], sweep._vmapped
-    def spy(case_fn, part, method):
-        seen.append(sorted(d.id for d in part["k"].devices()))
-        return vmapped(case_fn, part, method)
-    sweep._vmapped = spy
+    seen, on_mesh = [], sweep._on_mesh
+    def spy(case_fn, part, mesh, method):
+        seen.append(sorted(d.id for d in mesh.devices.flat))
+        return on_mesh(case_fn, part, mesh, method)
+    sweep._on_mesh = spy
     sweep.run_sweep(NoShardMapDecay(), decay_samples(12), sys.argv[1], batch_size=8, progress=False)
     print(json.dumps(seen))
     """
