@@ -79,9 +79,9 @@ def main(argv=None):
             qmc_case_fn(s, "full", "rigid", args.seed, **case_kwargs), halton_samples(args.n, s, "full", args.seed), np.arange(k)
         )
         title = f"scenario {s}, two-phase, rigid level"
-        res["plots"] = [
-            plot_tracking(hist, out / f"{STEM}_{s}_tracking.png", f"Figs 15-17 like: {title}, {k} cases", t_c),
-            plot_histories(hist, out / f"{STEM}_{s}_histories.png", f"Figs 18-20 like: {title}, {k} cases"),
+        res["plots"] = [  # file names only: the report is read beside them
+            Path(plot_tracking(hist, out / f"{STEM}_{s}_tracking.png", f"Figs 15-17 like: {title}, {k} cases", t_c)).name,
+            Path(plot_histories(hist, out / f"{STEM}_{s}_histories.png", f"Figs 18-20 like: {title}, {k} cases")).name,
         ]
         # -- passive sweep over Table 8: Table 9, Fig 21 -------------------------------------------
         ptable = run_qmc_sweep(s, args.n, phase="passive", out=rows_dir / f"passive_{s}_{tag}.csv", seed=args.seed, **case_kwargs)
@@ -89,9 +89,9 @@ def main(argv=None):
         passive_tables.append(ptable)
         print(f"scenario {s}: two-phase success {res['full']['success_rate']:.2f}, passive success {res['passive']['success_rate']:.2f}")
     merged = {name: np.concatenate([t[name] for t in passive_tables]) for name in passive_tables[0]}
-    data["plane_plot"] = plot_landing_plane(
+    data["plane_plot"] = Path(plot_landing_plane(
         merged, out / f"{STEM}_plane.png", f"Fig 21 like: passive phase, Table 8 captures, 3 x {args.n} cases, rigid level"
-    )
+    )).name  # fmt: skip
     finish(data, out, STEM, write_md)
 
 
