@@ -43,6 +43,10 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 
 
+TWO_PHASE_LEVEL = {"two_phase": "rigid", "two_phase_ale": "ale"}
+"""The two-phase sections and the level of each."""
+
+
 def parse_args(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--quick", action="store_true", help="small batches only, results in experiments/out/")
@@ -81,9 +85,9 @@ def worker(job: dict) -> dict:
         return table, time.perf_counter() - t0, load0
 
     if job["kind"] == "throughput":
+        phase = job.get("phase", "passive")
         for b in job["batch_sizes"]:
             n = max(b, job["min_cases"])
-            phase = job.get("phase", "passive")
             kw = dict(scenario="I", n=n, phase=phase, fidelity=job["fidelity"], batch_size=b, t_end_s=job["t_end_s"])
             _, first, load_first = sweep(f"first_{b}", **kw)
             table, run, load_run = sweep(f"run_{b}", **kw)
@@ -247,7 +251,7 @@ def main(argv=None):
     data["notes"] = [
         "The machine is shared with other developers: the run times carry their load (see the load column).",
     ]
-    rerun = {("passive" if s in ("rigid", "ale", "full") else "full", {"two_phase": "rigid", "two_phase_ale": "ale"}.get(s, s)) for s in args.sections}
+    rerun = {("full", TWO_PHASE_LEVEL[s]) if s in TWO_PHASE_LEVEL else ("passive", s) for s in args.sections}
     if args.keep and json_path.exists():
         # keep the stored sections that this run does not redo (each keeps its own machine line in
         # the notes: they may come from another session)
@@ -282,10 +286,11 @@ def main(argv=None):
             job = dict(kind="throughput", fidelity=level, batch_sizes=[2], min_cases=2, t_end_s=0.1 if args.quick else args.ale_t_end)
             data["throughput"] += run_worker(job, d)["results"]
             save()
-    for section, level, t_end, sizes in (("two_phase", "rigid", 2.0, [1, 8] if args.quick else [1, 8, 32]),
-                                          ("two_phase_ale", "ale", 0.1 if args.quick else args.ale_t_end, [2])):  # fmt: skip
+    for section, t_end, sizes in (("two_phase", 2.0, [1, 8] if args.quick else [1, 8, 32]),
+                                  ("two_phase_ale", 0.1 if args.quick else args.ale_t_end, [2])):  # fmt: skip
         if section not in args.sections:
             continue
+        level = TWO_PHASE_LEVEL[section]
         for d in args.devices:
             job = dict(kind="throughput", phase="full", fidelity=level, batch_sizes=sizes, min_cases=max(sizes) if level == "ale" else (8 if args.quick else 32), t_end_s=t_end)
             data["throughput"] += run_worker(job, d)["results"]

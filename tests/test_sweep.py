@@ -442,13 +442,7 @@ def test_per_device_calls_without_shard_map(tmp_path):
     # two chunks, each as four calls on one device each (the threads may start them in any order)
     assert sorted(map(tuple, seen)) == sorted([(d,) for d in range(4)] * 2)
     one = run_sweep(DecayCase(), decay_samples(12), tmp_path / "one.csv", batch_size=8, progress=False)
-    four = read_sweep_csv(out)
-    ok = ~one["failed"]
-    for name in one:
-        if one[name].dtype.kind == "f":  # roundoff only (as in test_kill_and_resume)
-            np.testing.assert_allclose(four[name][ok], one[name][ok], rtol=1e-12, atol=1e-14, equal_nan=True, err_msg=name)
-        else:
-            np.testing.assert_array_equal(four[name], one[name], err_msg=name)
+    _assert_same_toy_rows(read_sweep_csv(out), one)
 
 
 def test_failed_cases_are_rows_with_their_status(tmp_path):
@@ -502,19 +496,20 @@ def test_kill_and_resume(tmp_path):
     assert second.returncode == 0, second.stderr[-3000:]
     lines = out.read_text().splitlines()
     assert len(lines) == 13 and sorted(int(x.split(",")[0]) for x in lines[1:]) == list(range(12))
-    resumed = read_sweep_csv(out)
-    ok = ~uninterrupted["failed"]
-    for name in uninterrupted:
-        if uninterrupted[name].dtype.kind == "f":
-            # 4 devices vs 1 device, successful cases: roundoff only (measured identical). The state
-            # where a failed case stopped (max_steps) is not a result: its flags and status are
-            # compared below, not its values (they differed by 3e-10). atol: y1_error (~3e-10) is
-            # a difference of nearly equal numbers, its roundoff is absolute (2e-15 measured).
-            np.testing.assert_allclose(
-                resumed[name][ok], uninterrupted[name][ok], rtol=1e-12, atol=1e-14, equal_nan=True, err_msg=name
-            )
+    _assert_same_toy_rows(read_sweep_csv(out), uninterrupted)
+
+
+def _assert_same_toy_rows(got: dict, want: dict):
+    """The toy sweep's rows on 4 devices against 1 device. Successful cases: roundoff only (measured
+    identical). The state where a failed case stopped (max_steps) is not a result: its flags and
+    status are compared, not its values (they differed by 3e-10). atol: y1_error (~3e-10) is a
+    difference of nearly equal numbers, its roundoff is absolute (2e-15 measured)."""
+    ok = ~want["failed"]
+    for name in want:
+        if want[name].dtype.kind == "f":
+            np.testing.assert_allclose(got[name][ok], want[name][ok], rtol=1e-12, atol=1e-14, equal_nan=True, err_msg=name)
         else:
-            np.testing.assert_array_equal(resumed[name], uninterrupted[name], err_msg=name)
+            np.testing.assert_array_equal(got[name], want[name], err_msg=name)
 
 
 # ------------------------------------------------------------------------------------------------
