@@ -12,7 +12,7 @@ import sys
 import time
 from pathlib import Path
 
-from jaxcable.provenance import machine_info
+from jaxcable.core.provenance import machine_info
 
 ROOT = Path(__file__).resolve().parent.parent
 

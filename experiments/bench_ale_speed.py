@@ -14,7 +14,7 @@ Sections (results are written after each one):
 
 (1) ``evals``: one vector-field evaluation of the design case at each level, timed inside a jitted
     ``fori_loop`` of ``--evals`` evaluations with the scene as a jit *argument* (as in
-    :func:`jaxcable.simulate`, so parameters are not folded into constants), best of ``--reps``;
+    :func:`jaxcable.core.simulate`, so parameters are not folded into constants), best of ``--reps``;
     also ``cables.respond`` and ``rocket.derivative`` alone, the first call (trace + compile) of a
     single jitted evaluation and the number of kernels (fusions, dots, library calls) in its
     optimised HLO.
@@ -250,7 +250,7 @@ def worker_landings(spec):
     import jaxcable
     from jaxcable.arresting.landing import run_landing
     from jaxcable.arresting.layout import CaptureState
-    from jaxcable.provenance import machine_info
+    from jaxcable.core.provenance import machine_info
 
     results = {}
     for level in spec["levels"]:
@@ -438,7 +438,7 @@ def compare_states(before_path, after_path, groups):
 
 def main(args):
     import jaxcable
-    from jaxcable.provenance import machine_info
+    from jaxcable.core.provenance import machine_info
 
     jaxcable.enable_x64()  # the workers run in float64; record it here too
 

@@ -1,6 +1,6 @@
 """Hook-cable friction: the regularisation speed ``v_s`` against accuracy and run time (issues 3, 4).
 
-The contact friction law (Appendix, :mod:`jaxcable.arresting.contact`) reaches ``mu_s`` at slip speed
+The contact friction law (Appendix, :mod:`jaxcable.components.contact`) reaches ``mu_s`` at slip speed
 ``v_s``; below it the stick is regularised as a creep whose viscous slope ``1.5 mu_s f_n / v_s`` acts
 on the cable node at the hook. Late in a landing (``f_n`` ~ 2e5 N on a ~3 kg node) that slope is the
 largest eigenvalue of the vector field's Jacobian (real, ~ -7e4 1/s at t = 0.7 s with ``v_s`` = 0.2
@@ -31,7 +31,7 @@ from pathlib import Path
 
 import jaxcable
 from jaxcable.arresting.landing import LEVEL_DEFAULTS
-from jaxcable.provenance import machine_info
+from jaxcable.core.provenance import machine_info
 
 ROOT = Path(__file__).resolve().parent.parent
 OUTPUTS = ("z_max_m", "a_max_g", "sigma_max_mpa", "stop_time_s")

@@ -33,7 +33,7 @@ import numpy as np
 
 import jaxcable
 from jaxcable.arresting.passive import passive_landing_scene
-from jaxcable.simulate import simulate
+from jaxcable.core.simulate import simulate
 VARIANTS = (None, 48, 24)
 
 
@@ -86,7 +86,7 @@ def vector_field_section(repeats):
 
 
 def design_section(repeats, t_end):
-    from jaxcable.design import design_problem, objective, objective_value, paper_start, value_and_grad_by_mode, _adjoint
+    from jaxcable.arresting.design import design_problem, objective, objective_value, paper_start, value_and_grad_by_mode, _adjoint
 
     calls, problems = {}, {}
     for mode in ("forward", "reverse"):

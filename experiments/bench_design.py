@@ -1,4 +1,4 @@
-"""Benchmark of the gradient-based buffer design (jaxcable.design; not a test).
+"""Benchmark of the gradient-based buffer design (jaxcable.arresting.design; not a test).
 
 Sections (all at the rigid level, Table 8 captures of scenario I, scrambled Halton, float64):
 
@@ -50,7 +50,7 @@ import jax.numpy as jnp
 import numpy as np
 
 import jaxcable
-from jaxcable.design import (
+from jaxcable.arresting.design import (
     CRITERIA,
     ObjectiveWeights,
     batch_criteria,
@@ -63,7 +63,7 @@ from jaxcable.design import (
     paper_start,
 )
 from jaxcable.arresting.passive import SmoothingWidths
-from jaxcable.provenance import machine_info
+from jaxcable.core.provenance import machine_info
 
 ROOT = Path(__file__).resolve().parent.parent
 SECTIONS = ("cost", "bias", "landscape", "optimise", "two_phase", "chunk")

@@ -36,7 +36,7 @@ import jax.numpy as jnp
 import numpy as np
 
 import jaxcable
-from jaxcable.design import (
+from jaxcable.arresting.design import (
     ObjectiveWeights,
     batch_criteria,
     criteria_summary,
@@ -48,7 +48,7 @@ from jaxcable.design import (
     optimise,
     paper_start,
 )
-from jaxcable.provenance import machine_info
+from jaxcable.core.provenance import machine_info
 
 ROOT = Path(__file__).resolve().parents[1]
 OBJECTIVES = {

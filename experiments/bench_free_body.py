@@ -1,6 +1,6 @@
 """The rigid rocket's Newton-Euler path against the general Kane path, side by side (not a test).
 
-``jaxcable.body.multibody.accelerations`` sends a system without hinges (the rigid and ale levels'
+``jaxcable.components.multibody.accelerations`` sends a system without hinges (the rigid and ale levels'
 rocket: one body, hooks welded) through Newton-Euler body by body, ``m v_dot = F``,
 ``J omega_dot = tau - omega x J omega``, instead of the general Kane path (partial velocities by
 ``jacfwd``, the 6 x 6 mass matrix and its Cholesky solve). The two give the same accelerations and
@@ -25,8 +25,8 @@ import jax
 import numpy as np
 
 import jaxcable
-from jaxcable.body import multibody
-from jaxcable.design import design_problem, objective_and_grad, objective_value, paper_start
+from jaxcable.components import multibody
+from jaxcable.arresting.design import design_problem, objective_and_grad, objective_value, paper_start
 
 PATHS = {"kane": multibody._kane_accelerations, "newton_euler": multibody._free_body_accelerations}
 

@@ -29,13 +29,13 @@ import jax
 import jax.numpy as jnp
 
 import jaxcable
-from jaxcable.provenance import machine_info
+from jaxcable.core.provenance import machine_info
 
 ROOT = Path(__file__).resolve().parent.parent
 
 
 def _sweep_rate(n, batch, fidelity, t_end):
-    from jaxcable.sweep import run_qmc_sweep
+    from jaxcable.studies.sweep import run_qmc_sweep
 
     times = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -52,7 +52,7 @@ def _sweep_rate(n, batch, fidelity, t_end):
 
 
 def _design_ratio(n, gradient, t_end):
-    from jaxcable.design import design_problem, objective_and_grad, objective_value, paper_start
+    from jaxcable.arresting.design import design_problem, objective_and_grad, objective_value, paper_start
 
     problem = design_problem("m_w,F_f", n=n, gradient=gradient, t_end_s=t_end)
     u = paper_start(problem)

@@ -39,7 +39,7 @@ import optimistix as optx
 
 import jaxcable
 from jaxcable.arresting.passive import smooth_landing_outputs
-from jaxcable.design import (
+from jaxcable.arresting.design import (
     LEVEL_DEFAULTS,
     LEVEL_STEP_CONTROL,
     _scene,
@@ -49,7 +49,7 @@ from jaxcable.design import (
     objective_value,
     paper_start,
 )
-from jaxcable.simulate import make_solver, simulate
+from jaxcable.core.simulate import make_solver, simulate
 
 
 # ---- 1. diffrax's loop on a trivial vector field ----------------------------------------------

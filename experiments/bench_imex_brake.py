@@ -40,7 +40,7 @@ import numpy as np
 import optimistix as optx
 
 import jaxcable
-from jaxcable.design import _scene, design_problem, paper_start
+from jaxcable.arresting.design import _scene, design_problem, paper_start
 
 
 class MaskedDiagonal(lx.AbstractLinearSolver):

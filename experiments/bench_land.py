@@ -47,7 +47,7 @@ import jax
 import numpy as np
 
 import jaxcable
-from jaxcable.provenance import machine_info
+from jaxcable.core.provenance import machine_info
 
 ROOT = Path(__file__).resolve().parent.parent
 LEVELS = ("1dof", "rigid", "ale", "full")

@@ -1,16 +1,16 @@
 """Probes inside the solver's loop or after it: the same batch, side by side (not a test).
 
-``jaxcable.simulate`` saves a scene's output histories (its ``probe``) on a grid of times. It can
+``jaxcable.core.simulate`` saves a scene's output histories (its ``probe``) on a grid of times. It can
 call the probe inside diffrax's loop at each saved time (``probes_after=False``), or save the
 state there and call the probe once, vectorised, on all saved states after the solve
 (``probes_after=True``). ``None`` (the default) picks "after" when the state is no larger than the
-probe's output (:func:`jaxcable.simulate.probes_after_solve`): the rigid landing level.
+probe's output (:func:`jaxcable.core.simulate.probes_after_solve`): the rigid landing level.
 
 This script times both on the design problem's batch (rigid level, Table 8 captures of scenario I,
 scrambled Halton seed 0, t_end = 1.2 s, Tsit5 rtol = atol = 1e-6, 1201 saved samples, the paper's
 m_w and F_f (eq 19)), for three jitted functions of (m_w, F_f): the batch mean of the smooth
 criteria (forward), its forward-mode Jacobian (``diffrax.ForwardMode`` + ``jax.jacfwd``) and its
-reverse-mode gradient (``RecursiveCheckpointAdjoint`` with ``jaxcable.design.REVERSE_CHECKPOINTS``).
+reverse-mode gradient (``RecursiveCheckpointAdjoint`` with ``jaxcable.arresting.design.REVERSE_CHECKPOINTS``).
 Every function is compiled first; then all are called in turn, round by round (``--repeats``), so a
 change of the machine's load hits all alike, and each keeps its best time. It checks that the two
 ways give the same values and gradients.
@@ -34,9 +34,9 @@ import numpy as np
 
 import jaxcable
 from jaxcable.arresting.passive import smooth_landing_outputs
-from jaxcable.design import REVERSE_CHECKPOINTS, _scene, design_problem, paper_start
-from jaxcable.provenance import machine_info
-from jaxcable.simulate import simulate
+from jaxcable.arresting.design import REVERSE_CHECKPOINTS, _scene, design_problem, paper_start
+from jaxcable.core.provenance import machine_info
+from jaxcable.core.simulate import simulate
 
 
 def parse_args():

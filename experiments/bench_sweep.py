@@ -1,6 +1,6 @@
 """Benchmark of the quasi-Monte Carlo sweep (arresting-cable paper, section IV; not a test).
 
-Throughput of :func:`jaxcable.sweep.run_qmc_sweep` (passive phase, Table 8 ranges) on this CPU:
+Throughput of :func:`jaxcable.studies.sweep.run_qmc_sweep` (passive phase, Table 8 ranges) on this CPU:
 
 (1) ``rigid`` level, the sweep's defaults (t_end 2 s, 1 ms saved samples), batch sizes 1, 8, 32, 128,
     on 1 device and on 2 CPU devices (``XLA_FLAGS=--xla_force_host_platform_device_count=2``, one per
@@ -71,7 +71,7 @@ def worker(job: dict) -> dict:
     import numpy as np
 
     import jaxcable
-    from jaxcable.sweep import run_qmc_sweep, summarize_sweep
+    from jaxcable.studies.sweep import run_qmc_sweep, summarize_sweep
 
     jaxcable.enable_x64()
     tmp = Path(tempfile.mkdtemp(prefix="bench_sweep_"))
@@ -111,7 +111,7 @@ def worker(job: dict) -> dict:
             )
             print(json.dumps(out["results"][-1]), file=sys.stderr, flush=True)
     elif job["kind"] == "paper":
-        from jaxcable.sweep import passive_case_fn, plot_histories, plot_landing_plane, run_histories
+        from jaxcable.studies.sweep import passive_case_fn, plot_histories, plot_landing_plane, run_histories
         from jaxcable.arresting.uncertainty import halton_samples
 
         for scenario in job["scenarios"]:
@@ -192,7 +192,7 @@ def write_md(data: dict, path: Path):
         lines.append("")
     paper = data.get("paper", [])
     if paper:
-        from jaxcable.sweep import summary_markdown
+        from jaxcable.studies.sweep import summary_markdown
 
         lines += [
             "## Paper-style statistics, rigid level (Tables 7 and 9)",
@@ -243,7 +243,7 @@ def main(argv=None):
         write_md(json.loads(json_path.read_text()), md_path)
         return 0
     import jaxcable
-    from jaxcable.provenance import machine_info
+    from jaxcable.core.provenance import machine_info
 
     jaxcable.enable_x64()
     t0 = time.perf_counter()

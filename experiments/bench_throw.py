@@ -35,8 +35,8 @@ import jax
 import jax.numpy as jnp
 
 import jaxcable
-from jaxcable.provenance import machine_info
-from jaxcable.line.segments import (
+from jaxcable.core.provenance import machine_info
+from jaxcable.components.rope import (
     ChainState,
     chain_accelerations,
     chain_accelerations_dense,
@@ -45,7 +45,7 @@ from jaxcable.line.segments import (
     launch_theta,
     make_rope,
 )
-from jaxcable.scenes import line_throwing_scene
+from jaxcable.throw import line_throwing_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 

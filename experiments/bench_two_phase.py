@@ -25,7 +25,7 @@ import time
 from pathlib import Path
 
 import jaxcable
-from jaxcable.provenance import machine_info
+from jaxcable.core.provenance import machine_info
 
 ROOT = Path(__file__).resolve().parent.parent
 LEVELS = ("rigid", "ale", "full")

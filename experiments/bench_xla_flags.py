@@ -36,7 +36,7 @@ def child(n, repeats, ale=False):
     import jax
 
     import jaxcable
-    from jaxcable.design import design_problem, objective_and_grad, objective_value, paper_start
+    from jaxcable.arresting.design import design_problem, objective_and_grad, objective_value, paper_start
 
     jaxcable.enable_x64()
     level = dict(fidelity="ale", t_end_s=0.1) if ale else dict(t_end_s=1.2)

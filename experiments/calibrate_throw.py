@@ -19,7 +19,7 @@ import numpy as np
 
 import jaxcable
 from jaxcable import calibration as C
-from jaxcable.scenes import line_throwing_scene
+from jaxcable.throw import line_throwing_scene
 
 p = argparse.ArgumentParser()
 p.add_argument("--steps", type=int, default=20)

@@ -7,7 +7,7 @@ m_w, F_f and a K-knot brake profile, minimising the worst normalised hard criter
 ``max(z_max / 10 m, a_max / 5 g, sigma_max / 800 MPa)`` (< 1 meets all three), once with every
 evaluation at the ``ale`` level and once at the ``rigid`` level; then it lands both optima at
 ``rigid``, ``ale`` and ``full``. Variables are bounded by the design module's scaled-logistic
-reparametrisation (:class:`jaxcable.design.DesignSpace`, default bounds). Every run goes through
+reparametrisation (:class:`jaxcable.arresting.design.DesignSpace`, default bounds). Every run goes through
 the public :func:`jaxcable.arresting.landing.run_landing` at the level's default solver settings.
 
 Writes ``experiments/results/design_ale_check.{json,md}``. Usage:
@@ -28,7 +28,7 @@ import scipy.optimize
 import jaxcable
 from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.landing import run_landing
-from jaxcable.design import DesignSpace, profile_names
+from jaxcable.arresting.design import DesignSpace, profile_names
 
 LIMITS = {"z_max_m": 10.0, "a_max_g": 5.0, "sigma_max_mpa": 800.0}
 

@@ -4,7 +4,7 @@
 Nelder-Mead at the ale level (70 landings) and found no design below a_max = 6.61 g on the design
 case (central, vertical, 20 m/s; Table 1 layout). Since session 9 the ale-level gradient costs about
 6x a forward run in reverse mode (sparse contact derivative), so this script asks the same question
-with gradients: L-BFGS (:func:`jaxcable.design.lbfgs`, reverse mode through the ale solve) on the
+with gradients: L-BFGS (:func:`jaxcable.arresting.design.lbfgs`, reverse mode through the ale solve) on the
 design objective with the worst normalised criterion as its tail (``tail_criterion="worst"``, no
 expected-cost term, the default squared penalties), over m_w, F_f and a K-knot profile, from
 Table 1's buffer (the paper's m_w and F_f with a flat profile). It then lands the best design with
@@ -29,7 +29,7 @@ from design_ale_check import LIMITS, land
 
 import jaxcable
 from jaxcable.arresting.layout import CaptureState
-from jaxcable.design import ObjectiveWeights, _host_built_scenes, design_problem, lbfgs
+from jaxcable.arresting.design import ObjectiveWeights, _host_built_scenes, design_problem, lbfgs
 
 
 def design_case_problem(knots, t_end, fidelity="ale"):

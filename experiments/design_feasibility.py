@@ -44,10 +44,10 @@ def main(argv=None):
     args = ap.parse_args(argv)
 
     import jaxcable
-    from jaxcable.design import (
+    from jaxcable.arresting.design import (
         ObjectiveWeights, batch_criteria, criteria_summary, design_problem, optimise, paper_start,
     )  # fmt: skip
-    from jaxcable.provenance import machine_info
+    from jaxcable.core.provenance import machine_info
 
     from bench_design import POOR_STARTS  # the benchmark's poor start designs (this directory)
 

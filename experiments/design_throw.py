@@ -2,7 +2,7 @@
 
 Maximises the range of the calibrated line-throwing rocket over the launch angle and the rope
 diameter (same material: density ~ d^2) under a landing-speed and a rope-pull limit
-(:mod:`jaxcable.line_design`; the limits are illustrative, see its docstring). Both optimisers
+(:mod:`jaxcable.throw.design`; the limits are illustrative, see its docstring). Both optimisers
 start from the flight-tested design (30 deg, 10 mm) on the same reparametrised objective; the
 history records every evaluation. The best designs are re-flown with finer rope segments. A coarse
 grid of the objective's parts over (angle, diameter) draws the landscape with both paths.
@@ -27,7 +27,7 @@ import jax.numpy as jnp
 import numpy as np
 
 import jaxcable
-from jaxcable.line_design import (
+from jaxcable.throw.design import (
     THROW_CRITERIA,
     calibrated_start,
     nelder_mead_throw,
@@ -37,7 +37,7 @@ from jaxcable.line_design import (
     throw_problem,
     throw_report,
 )
-from jaxcable.provenance import machine_info
+from jaxcable.core.provenance import machine_info
 
 ROOT = Path(__file__).resolve().parent.parent
 

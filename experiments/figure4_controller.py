@@ -36,7 +36,7 @@ from jaxcable.arresting.control import (
     measurement_noise_track,
     run_tracking_loop,
 )
-from jaxcable.provenance import machine_info
+from jaxcable.core.provenance import machine_info
 
 ROOT = Path(__file__).resolve().parent.parent
 T1 = 10.0

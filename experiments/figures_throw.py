@@ -34,8 +34,8 @@ import jax.numpy as jnp
 import numpy as np
 
 import jaxcable
-from jaxcable.provenance import machine_info
-from jaxcable.scenes import line_throwing_scene, with_angle
+from jaxcable.core.provenance import machine_info
+from jaxcable.throw import line_throwing_scene, with_angle
 
 ROOT = Path(__file__).resolve().parent.parent
 ANGLES_DEG = (25.0, 35.0, 45.0, 55.0, 65.0)
@@ -285,7 +285,7 @@ def main():
         "quick": args.quick,
     }
     header = [
-        "Lu et al. 2016 Figs 3-7: line-throwing rocket flights, calibrated defaults (jaxcable.scenes.CALIBRATION)",
+        "Lu et al. 2016 Figs 3-7: line-throwing rocket flights, calibrated defaults (jaxcable.throw.CALIBRATION)",
         ", ".join(f"{k}={v}" for k, v in settings.items()),
         ", ".join(f"{k}={v}" for k, v in meta.items()),
         ", ".join(f"{k}={v:.2f}" for k, v in timing.items()),

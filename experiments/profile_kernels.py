@@ -99,7 +99,7 @@ def main():
     import jax
 
     import jaxcable
-    from jaxcable.design import design_problem, objective_and_grad, objective_value, paper_start
+    from jaxcable.arresting.design import design_problem, objective_and_grad, objective_value, paper_start
 
     jaxcable.enable_x64()
     n = args.n or (32 if args.level == "rigid" else 1)

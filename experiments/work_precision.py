@@ -1,6 +1,6 @@
 """Work-precision study of the shipped scenes (issue 6, "speed against error"; not a test).
 
-For each scene configuration (a :class:`jaxcable.bench.BenchCase`) a reference is run with Dopri8
+For each scene configuration (a :class:`jaxcable.studies.bench.BenchCase`) a reference is run with Dopri8
 at rtol = atol = 1e-10 in float64; every other run (solver x tolerance, atol = rtol) is compared
 with it in the quantities users read (relative errors):
 
@@ -125,7 +125,7 @@ def worker(job_json: str, out_path: str) -> int:
     import jaxcable
 
     jaxcable.enable_x64(job["precision"] == "float64")
-    from jaxcable.bench import BenchCase, prepare_case, timed_run
+    from jaxcable.studies.bench import BenchCase, prepare_case, timed_run
 
     case = BenchCase(**case_spec(job["case"]))
     run = prepare_case(case)
@@ -222,7 +222,7 @@ def rhs_evals(r):
 
 
 def analyse(rows):
-    from jaxcable.bench import QUANTITIES, relative_errors
+    from jaxcable.studies.bench import QUANTITIES, relative_errors
 
     refs = {r["case"]: r for r in rows if r.get("role") == "reference" and r.get("ok")}
     out = []
@@ -262,7 +262,7 @@ def _fmt(x, spec=".1e"):
 
 
 def write_report(out_dir: Path, meta: dict, quick: bool):
-    from jaxcable.bench import QUANTITIES
+    from jaxcable.studies.bench import QUANTITIES
 
     rows = load_rows(out_dir)
     refs, runs = analyse(rows)
@@ -383,7 +383,7 @@ def plot(out_dir: Path, runs, refs):
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from jaxcable.bench import QUANTITIES
+    from jaxcable.studies.bench import QUANTITIES
 
     from matplotlib.ticker import NullFormatter
 
@@ -439,7 +439,7 @@ def extras(out_dir: Path, log):
     import jaxcable
     from jaxcable.arresting.passive import passive_landing_scene
     from jaxcable.arresting.two_phase import tracking_scene
-    from jaxcable.simulate import _solve_jit
+    from jaxcable.core.simulate import _solve_jit
 
     jaxcable.enable_x64()
 
@@ -529,7 +529,7 @@ def main():
         write_report(out_dir, meta, meta.get("quick", False))
         return 0
     import jaxcable
-    from jaxcable.provenance import machine_info
+    from jaxcable.core.provenance import machine_info
 
     jaxcable.enable_x64()
     meta = dict(machine=machine_info(), started=time.strftime("%Y-%m-%d %H:%M:%S"), quick=args.quick, notes=args.note)

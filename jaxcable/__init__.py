@@ -2,21 +2,24 @@
 
 Importing jaxcable does not change JAX's precision. The physics is meant for float64: call
 ``jaxcable.enable_x64()`` first (the command line, experiments and notebooks do).
+
+Layout: :mod:`jaxcable.core` (scene, simulate, validation), :mod:`jaxcable.components` (rope, ALE
+cable, multibody, contact, wind), the two systems :mod:`jaxcable.throw` and :mod:`jaxcable.arresting`,
+and :mod:`jaxcable.studies` (sweeps, optimisers, benchmarks).
 """
 
-from ._config import enable_x64
-from .scene import AbstractScene
-from .simulate import SOLVERS, Result, make_solver, simulate, status_message
-from .scenes import line_throwing_scene
+from jaxcable.core import SOLVERS, AbstractScene, Result, enable_x64, make_solver, simulate, status_message
+from jaxcable.core.provenance import __version__
+from jaxcable.throw import line_throwing_scene
 
 __all__ = [
     "AbstractScene",
     "Result",
     "SOLVERS",
+    "__version__",
     "enable_x64",
     "line_throwing_scene",
     "make_solver",
     "simulate",
     "status_message",
 ]
-__version__ = "0.1.0"

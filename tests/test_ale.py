@@ -10,7 +10,7 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 from scipy.optimize import brentq  # noqa: E402
 
-from jaxcable.line.ale import (  # noqa: E402
+from jaxcable.components.ale import (  # noqa: E402
     AleCable,
     AleState,
     ale_cable_vector_field,

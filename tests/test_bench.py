@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from jaxcable.arresting.one_dof import params_groups, stop_distance_bar
-from jaxcable.bench import BenchCase, bench_main, one_dof_params, relative_errors, run_bench
+from jaxcable.studies.bench import BenchCase, bench_main, one_dof_params, relative_errors, run_bench
 
 RTOLS = ("1e-3", "1e-5", "1e-7")
 

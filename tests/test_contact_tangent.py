@@ -17,7 +17,7 @@ import pytest
 import jaxcable
 from jaxcable.arresting.cable_sets import AleCables
 from jaxcable.arresting.passive import passive_landing_scene
-from jaxcable.simulate import simulate
+from jaxcable.core.simulate import simulate
 
 T_STATE = 0.06  # s into the design case: the hooks hold the cables (8 pairs touch)
 

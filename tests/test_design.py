@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from jaxcable.arresting.passive import SmoothingWidths
-from jaxcable.design import (
+from jaxcable.arresting.design import (
     CONDITIONS,
     DesignProblem,
     DesignSpace,
@@ -368,7 +368,7 @@ def test_two_phase_design_gradient_and_cli(capsys):
 def test_cable_damping_reaches_the_passive_scene():
     """The modelling parameter ``cable_damping_s`` (beta, not given in the paper) is passed to the
     cables of every case's scene (no solve: the scene is only built)."""
-    from jaxcable.design import _scene, design_problem
+    from jaxcable.arresting.design import _scene, design_problem
 
     p = design_problem("m_w,F_f", n=2, cable_damping_s=3e-3)
     cap = jax.tree_util.tree_map(lambda a: a[0], p.captures)
@@ -417,7 +417,7 @@ def test_lbfgs_minimise_converges_on_an_ill_conditioned_quadratic():
     condition number ~1e3 in u: it reaches the known minimiser in far fewer evaluations than adam
     needs steps, every evaluation is a history row, and the objective never increases between
     accepted points (Armijo)."""
-    from jaxcable.design import lbfgs_minimise, optax_minimise
+    from jaxcable.arresting.design import lbfgs_minimise, optax_minimise
 
     sp = DesignSpace.from_names("m_w,F_f")
     x_star = jnp.array([1000.0, 3.5e5])

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from jaxcable.arresting.landing import run_landing
-from jaxcable.design import CRITERIA, DesignProblem, _buffer, design_problem, objective_and_grad, objective_value, paper_start
+from jaxcable.arresting.design import CRITERIA, DesignProblem, _buffer, design_problem, objective_and_grad, objective_value, paper_start
 
 T_END = 0.05  # s: the hooks' impact on the cables and the counterweights' start (~600 steps)
 
@@ -67,7 +67,7 @@ def test_ale_cases_report_whether_the_contact_derivative_is_exact(problem):
     import dataclasses
     import warnings
 
-    from jaxcable.design import _Rows, _record
+    from jaxcable.arresting.design import _Rows, _record
 
     x = paper_start(problem)
     u = problem.space.to_unconstrained(x)

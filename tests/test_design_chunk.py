@@ -8,7 +8,7 @@ import diffrax
 import numpy as np
 import pytest
 
-from jaxcable.design import AUTO_CHUNK, _chunk_size, design_problem, objective_and_grad, objective_value, paper_start
+from jaxcable.arresting.design import AUTO_CHUNK, _chunk_size, design_problem, objective_and_grad, objective_value, paper_start
 
 # 5 cases in chunks of 2: three chunks, the last padded with one copy of case 5
 SETTINGS = dict(n=5, t_end_s=0.6, rtol=1e-8, atol=1e-8)
@@ -55,7 +55,7 @@ def test_bad_chunk_is_refused(bad):
 
 @pytest.mark.parametrize("text", ["0", "-3", "lots"])
 def test_cli_bad_chunk_is_refused(text, capsys):
-    from jaxcable.design import design_main
+    from jaxcable.arresting.design import design_main
 
     assert design_main(["--n", "2", "--steps", "0", "--chunk", text]) == 2
     assert "chunk" in capsys.readouterr().err

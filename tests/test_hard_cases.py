@@ -30,11 +30,11 @@ from jaxcable.arresting.layout import ArrestingLayout, CaptureState
 from jaxcable.arresting.one_dof import design_groups, stop_distance_bar, v0_bar
 from jaxcable.arresting.passive import passive_landing_scene, smooth_landing_outputs
 from jaxcable.arresting.two_phase import SCENARIO_SETTINGS, tracking_outputs, tracking_scene
-from jaxcable.body.rocket import PointRocket
-from jaxcable.forces import AbstractForce, Gravity
-from jaxcable.line.segments import ChainState, kinetic_energy, make_rope
-from jaxcable.scene import AbstractScene
-from jaxcable.scenes.line_throwing import Launch, LineThrowingScene
+from jaxcable.throw.rocket import PointRocket
+from jaxcable.throw.forces import AbstractForce, Gravity
+from jaxcable.components.rope import ChainState, kinetic_energy, make_rope
+from jaxcable.core.scene import AbstractScene
+from jaxcable.throw.scene import Launch, LineThrowingScene
 
 EVENT = int(diffrax.RESULTS.event_occurred._value)
 G = 9.81

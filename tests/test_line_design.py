@@ -1,4 +1,4 @@
-"""Line-throwing launch design (jaxcable.line_design): the objective's gradient w.r.t. the launch
+"""Line-throwing launch design (jaxcable.throw.design): the objective's gradient w.r.t. the launch
 angle and the rope diameter through the diffrax solve and the impact event against central
 differences in float64, the d^2 density scaling, the penalties by hand, ``jaxcable design --scene
 throw``, and bad input.
@@ -13,8 +13,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxcable.design import design_main
-from jaxcable.line_design import (
+from jaxcable.arresting.design import design_main
+from jaxcable.throw.design import (
     ThrowLimits,
     ThrowWeights,
     calibrated_start,

@@ -40,7 +40,7 @@ def test_three_link_chain_matches_pydy_kanes_method():
     ref = pc.run_pydy(n, tol * 1e-2, ts)
 
     # jaxcable: the benchmark's scene, integrated directly with diffrax (cheaper to compile than
-    # jaxcable.simulate's probes/outputs; the vector field is the one simulate integrates).
+    # jaxcable.core.simulate's probes/outputs; the vector field is the one simulate integrates).
     scene = pc.jaxcable_chain_scene(n)
 
     @eqx.filter_jit

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from jaxcable.body.rocket import PointRocket
-from jaxcable.forces import AbstractForce, Gravity, MomentumFluxPullOut
-from jaxcable.line.segments import (
+from jaxcable.throw.rocket import PointRocket
+from jaxcable.throw.forces import AbstractForce, Gravity, MomentumFluxPullOut
+from jaxcable.components.rope import (
     ChainState,
     chain_accelerations,
     chain_accelerations_dense,
@@ -20,7 +20,7 @@ from jaxcable.line.segments import (
     launch_theta,
     make_rope,
 )
-from jaxcable.scenes.line_throwing import Launch, LineThrowingScene, line_throwing_scene
+from jaxcable.throw.scene import Launch, LineThrowingScene, line_throwing_scene
 
 
 def random_state(key, n, deployed, speed=30.0):
@@ -90,7 +90,7 @@ def test_matches_sympy_kanes_method():
     km.kanes_equations(particles, loads)
     rhs = sm.lambdify(q + u, km.mass_matrix.LUsolve(km.forcing), "numpy")
 
-    from jaxcable.line.segments import ChainKinematics, unit_vectors
+    from jaxcable.components.rope import ChainKinematics, unit_vectors
 
     rng = np.random.default_rng(0)
     for _ in range(4):
@@ -203,7 +203,7 @@ def test_closed_form_rope_lifted_from_heap():
         drag_coefficient=jnp.asarray(0.0),
     )
     launch = Launch(angle_rad=jnp.asarray(np.pi / 2 - 1e-9), rail_length_m=jnp.asarray(1.5))  # thrust axis vertical at rest
-    from jaxcable.forces import Thrust
+    from jaxcable.throw.forces import Thrust
 
     scene = LineThrowingScene(
         rocket=rocket, rope=rope, launch=launch, forces=(Gravity(g_mps2=g), Thrust(), MomentumFluxPullOut())

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from jaxcable.arresting.passive import passive_landing_scene, smooth_landing_outputs
-from jaxcable.scenes import line_throwing_scene, with_angle
-from jaxcable.simulate import probes_after_solve, simulate
+from jaxcable.throw import line_throwing_scene, with_angle
+from jaxcable.core.simulate import probes_after_solve, simulate
 
 
 def _leaves_close(a, b, rtol, atol=0.0):

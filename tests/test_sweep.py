@@ -37,7 +37,7 @@ from jaxcable.arresting.uncertainty import (
     scenario_ranges,
     scenario_settings,
 )
-from jaxcable.sweep import (
+from jaxcable.studies.sweep import (
     SAVE_SPACING_S,
     AbstractCaseFunction,
     case_fn_for,
@@ -171,7 +171,7 @@ _SHARDED_SCRIPT = textwrap.dedent(
     """
     import json, sys, jax
     import jaxcable
-    from jaxcable.sweep import run_qmc_sweep
+    from jaxcable.studies.sweep import run_qmc_sweep
     from test_sweep import SWEEP
     jaxcable.enable_x64()
     run_qmc_sweep(out=sys.argv[1], progress=False, **SWEEP)
@@ -396,7 +396,7 @@ def decay_samples(n):
 _KILL_SCRIPT = textwrap.dedent(
     """
     import sys, time
-    from jaxcable.sweep import run_sweep
+    from jaxcable.studies.sweep import run_sweep
     from test_sweep import DecayCase, decay_samples
     sleep = float(sys.argv[2])
     run_sweep(DecayCase(), decay_samples(12), sys.argv[1], batch_size=3, identity=dict(toy=1), progress=False,
@@ -418,7 +418,7 @@ class NoShardMapDecay(DecayCase):
 _PER_DEVICE_SCRIPT = textwrap.dedent(
     """
     import json, sys
-    import jaxcable.sweep as sweep
+    import jaxcable.studies.sweep as sweep
     from test_sweep import NoShardMapDecay, decay_samples
     seen, on_mesh = [], sweep._on_mesh
     def spy(case_fn, part, mesh, method):
@@ -524,7 +524,7 @@ def test_sweep_rows_match_single_landings(reference):
     from jaxcable.arresting.landing import LEVEL_DEFAULTS
     from jaxcable.arresting.passive import landing_outputs, passive_landing_scene
 
-    from jaxcable.sweep import passive_case_fn
+    from jaxcable.studies.sweep import passive_case_fn
 
     _, table = reference
     t_end = SWEEP["t_end_s"]
@@ -553,7 +553,7 @@ def test_sweep_rows_match_single_landings(reference):
 @pytest.mark.slow
 def test_histories_and_cli_plots(reference, tmp_path, capsys):
     """Figs 18-20 histories in a separate batch: their maxima are the sweep's outputs."""
-    from jaxcable.sweep import passive_case_fn, run_histories
+    from jaxcable.studies.sweep import passive_case_fn, run_histories
 
     src, table = reference
     case_fn = passive_case_fn("rigid", t_end_s=SWEEP["t_end_s"])

@@ -17,11 +17,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import jaxcable.sweep as sweep_module
+import jaxcable.studies.sweep as sweep_module
 from jaxcable.arresting.layout import CaptureState
 from jaxcable.arresting.two_phase import SCENARIO_SETTINGS, run_two_phase
 from jaxcable.arresting.uncertainty import UNCERTAIN_PARAMETERS, halton_samples, scenario_ranges
-from jaxcable.sweep import (
+from jaxcable.studies.sweep import (
     CAPTURED_PREFIX,
     case_key,
     read_sweep_csv,

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import jaxcable
-from jaxcable.scenes import line_throwing_scene, with_angle
+from jaxcable.throw import line_throwing_scene, with_angle
 
 COARSE = dict(segment_length_m=10.0, rope_length_m=800.0)
 SIM = dict(t1=40.0, solver="dopri5", rtol=1e-8, atol=1e-8)
@@ -117,7 +117,7 @@ def test_bad_input_names_the_field(kwargs, field):
 
 
 def test_bad_rocket_and_solver_inputs(scene):
-    from jaxcable.body.rocket import paper_rocket
+    from jaxcable.throw.rocket import paper_rocket
 
     with pytest.raises(ValueError, match="rocket.mass_kg"):
         eqx.tree_at(lambda r: r.mass_kg, paper_rocket(), jnp.asarray(-20.0)).__check_init__()

@@ -1,6 +1,6 @@
 """Statics shared by the peer cable scripts (``moordyn_line.py``, ``exudyn_cable.py``): the static
 equilibrium of jaxcable's ALE cable with both ends pinned (Newton on the generalised forces of
-:func:`jaxcable.line.ale.assemble` over the internal nodes' positions, from a stretched guess), and
+:func:`jaxcable.components.ale.assemble` over the internal nodes' positions, from a stretched guess), and
 Irvine's elastic catenary, the closed form both compare against."""
 
 from __future__ import annotations
@@ -13,14 +13,14 @@ def static_newton(cable, s, gravity, guess, scale, max_iter: int = 50):
     """Positions (n, 3) [m] of the discrete static equilibrium.
 
     Args:
-        cable: :class:`jaxcable.line.ale.AleCable`; s: (n,) material coordinates [m];
+        cable: :class:`jaxcable.components.ale.AleCable`; s: (n,) material coordinates [m];
         gravity: (3,) [m/s^2]; guess: (n, 3) start [m], its end nodes are the pins;
         scale: force scale of the residual [N] (e.g. the cable's weight); max_iter: Newton steps.
     """
     import jax
     import jax.numpy as jnp
 
-    from jaxcable.line.ale import AleState, assemble
+    from jaxcable.components.ale import AleState, assemble
 
     n = s.shape[0]
     r0 = jnp.asarray(guess)

@@ -1,6 +1,6 @@
 """Peer comparison (issue 6): a cable pinned at both ends, dropped from straight under gravity, in
 Exudyn (PyPI ``exudyn``: 2D ANCF cable elements, ``ObjectANCFCable2D``) against jaxcable's ALE cable
-(arresting-cable paper, section III.B.1, eqs 26-31; :mod:`jaxcable.line.ale`, every material
+(arresting-cable paper, section III.B.1, eqs 26-31; :mod:`jaxcable.components.ale`, every material
 coordinate fixed: a Lagrangian cable of linear elements with consistent mass).
 
 The physical case (the same in both codes)
@@ -15,7 +15,7 @@ No damping.
    an adaptive explicit Runge-Kutta pair at rtol = atol = 1e-8 (Exudyn: its DOPRI5; jaxcable:
    diffrax Tsit5), saved at the times Exudyn's sensor recorded.
 2. *Statics*: the hanging cable. Exudyn: ``SolveStatic`` with load stepping; jaxcable: Newton on the
-   free nodal positions of :func:`jaxcable.line.ale.assemble`'s force. Both against Irvine's elastic
+   free nodal positions of :func:`jaxcable.components.ale.assemble`'s force. Both against Irvine's elastic
    catenary (span = L0: all sag comes from stretch).
 
 Modelling differences (not error): Exudyn's element is a cubic Hermite (position + slope) ANCF cable
@@ -153,7 +153,7 @@ def run_exudyn_static(n_el: int):
 def _cable_bits(n_el):
     import jax.numpy as jnp
 
-    from jaxcable.line.ale import AleCable
+    from jaxcable.components.ale import AleCable
 
     n = n_el + 1
     cable = AleCable(EA_N=EA_N, rhoA_kg_per_m=RHOA_KG_PER_M)
@@ -183,7 +183,7 @@ def run_jaxcable_drop(n_el: int, ts: np.ndarray):
     import jax
     import jax.numpy as jnp
 
-    from jaxcable.line.ale import AleState, ale_cable_vector_field
+    from jaxcable.components.ale import AleState, ale_cable_vector_field
 
     cable, s, gravity = _cable_bits(n_el)
     n = n_el + 1
@@ -233,7 +233,7 @@ def main(argv=None):
     t_end = 0.25 if args.quick else 0.5
 
     import jaxcable
-    from jaxcable.provenance import machine_info
+    from jaxcable.core.provenance import machine_info
 
     jaxcable.enable_x64()
     info = machine_info()

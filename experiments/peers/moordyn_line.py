@@ -1,6 +1,6 @@
 """Peer comparison (issue 6): a hanging line pinned at both ends in MoorDyn (lumped-mass mooring
 code, PyPI ``moordyn``) against jaxcable's ALE cable (arresting-cable paper, section III.B.1, eqs
-26-31; :mod:`jaxcable.line.ale` with every material coordinate fixed: a Lagrangian cable).
+26-31; :mod:`jaxcable.components.ale` with every material coordinate fixed: a Lagrangian cable).
 
 The physical case (the same in both codes)
 ------------------------------------------
@@ -14,14 +14,14 @@ axial wave of ``rho A c v`` = 500 N; undamped, that wave rings at the highest me
 lumped and consistent mass differ most, and the tension histories cannot be compared.
 
 1. *Statics*: the hanging line at rest. MoorDyn: its own initial-condition solver (``Init``);
-   jaxcable: Newton on the free nodal positions of :func:`jaxcable.line.ale.assemble`'s force.
+   jaxcable: Newton on the free nodal positions of :func:`jaxcable.components.ale.assemble`'s force.
    Both against Irvine's elastic catenary (analytic): sag of the middle node and horizontal tension.
 2. *Dynamics*: from its own static state, each code pulls the right end horizontally at a constant
    ``PULL_SPEED_MPS`` = 0.5 m/s for ``T_END`` = 1 s (the span grows from 10 to 10.5 m = L0, so the
    line is pulled nearly straight and the tension rises ~10x). MoorDyn: the right end is a
    ``Coupled`` point driven through ``Step(x, v, t, dt)`` (x is the position at the start of the
    step, extrapolated with v inside it: checked, see ``_check_coupled_semantics``); RK4 at
-   ``dtM`` = 1e-4 s. jaxcable: :func:`~jaxcable.line.ale.ale_cable_vector_field` with both end
+   ``dtM`` = 1e-4 s. jaxcable: :func:`~jaxcable.components.ale.ale_cable_vector_field` with both end
    positions prescribed (the right one with its velocity in the state, so it moves uniformly),
    diffrax Tsit5, rtol = atol = 1e-8. Compared: the middle node's path and the tension of the
    segments next to the right end, on a common time grid.
@@ -173,7 +173,7 @@ def jaxcable_static(nseg: int, guess: np.ndarray):
 
     from _jaxcable_statics import static_newton
 
-    from jaxcable.line.ale import AleCable
+    from jaxcable.components.ale import AleCable
 
     cable = AleCable(EA_N=EA_N, rhoA_kg_per_m=RHOA_KG_PER_M)
     s = jnp.linspace(0.0, LENGTH_M, nseg + 1)
@@ -201,7 +201,7 @@ def run_jaxcable(nseg: int, t_end: float, ts: np.ndarray, static_pos: np.ndarray
     import jax
     import jax.numpy as jnp
 
-    from jaxcable.line.ale import AleCable, AleState, ale_cable_vector_field
+    from jaxcable.components.ale import AleCable, AleState, ale_cable_vector_field
 
     n = nseg + 1
     cable = AleCable(EA_N=EA_N, rhoA_kg_per_m=RHOA_KG_PER_M, damping_s=DAMPING_S)
@@ -257,7 +257,7 @@ def main(argv=None):
     ts = np.linspace(0.0, t_end, int(round(t_end / 0.01)) + 1)
 
     import jaxcable
-    from jaxcable.provenance import machine_info
+    from jaxcable.core.provenance import machine_info
 
     jaxcable.enable_x64()
     info = machine_info()

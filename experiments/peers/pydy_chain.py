@@ -17,11 +17,11 @@ swing (the fastest, most sensitive part of the motion) within ``T_END`` = 2 s.
   by ``pydy.codegen.ode_function_generators.generate_ode_function`` (``lambdify`` back end: the
   Cython back end needs Cython, not installed here; mass matrix solved numerically with numpy), and
   integrated with ``scipy.integrate.solve_ivp(method="DOP853")``.
-* jaxcable side: the public scene :class:`jaxcable.scenes.line_throwing.LineThrowingScene` with
-  only the :class:`~jaxcable.forces.Gravity` force (no ``Thrust``/``AeroDrag``/pull-out/``Ground``
+* jaxcable side: the public scene :class:`jaxcable.throw.scene.LineThrowingScene` with
+  only the :class:`~jaxcable.throw.forces.Gravity` force (no ``Thrust``/``AeroDrag``/pull-out/``Ground``
   component), a rope whose deployed length equals its capacity (every link full: no payout, no
   tail), the launch angle set to the drop angle so that the scene's own initial state is the
-  straight chain above, and :func:`jaxcable.simulate` with ``dopri8``.
+  straight chain above, and :func:`jaxcable.core.simulate` with ``dopri8``.
 
 What the public API cannot express: a *pinned* top. Node 0 of the chain is always the rocket, a
 free point mass. We emulate the pin with a rocket of ``PIN_MASS_KG`` = 1e30 kg whose weight is
@@ -68,10 +68,10 @@ def jaxcable_chain_scene(n: int):
     """The pendulum chain as a jaxcable line-throwing scene (see the module docstring)."""
     import jax.numpy as jnp
 
-    from jaxcable.body.rocket import PointRocket
-    from jaxcable.forces import AbstractForce, Gravity
-    from jaxcable.line.segments import make_rope
-    from jaxcable.scenes.line_throwing import Launch, LineThrowingScene
+    from jaxcable.throw.rocket import PointRocket
+    from jaxcable.throw.forces import AbstractForce, Gravity
+    from jaxcable.components.rope import make_rope
+    from jaxcable.throw.scene import Launch, LineThrowingScene
 
     class PinWeightCancel(AbstractForce):
         """Cancels gravity on node 0 (with a 1e30 kg 'rocket': a pinned top)."""
@@ -362,7 +362,7 @@ def main(argv=None):
         args.tol = 1e-8 if args.quick else 1e-10
 
     import jaxcable
-    from jaxcable.provenance import machine_info
+    from jaxcable.core.provenance import machine_info
 
     jaxcable.enable_x64()
     info = machine_info()

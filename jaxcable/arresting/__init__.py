@@ -13,7 +13,7 @@
 from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.cable_sets import AleCables, HookPoints, MasslessCables
 from jaxcable.arresting.cables import CableCoords, CableRoute, CableState, CableSubsystem
-from jaxcable.arresting.contact import ContactLaw, capsule_contact, pairwise_contacts
+from jaxcable.components.contact import ContactLaw, capsule_contact, pairwise_contacts
 from jaxcable.arresting.landing import LandingRun, plot_landing, report_landing, run_landing
 from jaxcable.arresting.layout import ArrestingLayout, CaptureState
 from jaxcable.arresting.passive import (

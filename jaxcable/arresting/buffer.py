@@ -27,7 +27,7 @@ metering cam of an aircraft arresting-gear engine, which shapes the braking forc
 The force still opposes the motion and is a function of position times ``tanh(w'/width)``, so the
 brake only dissipates (``brake_power >= 0``) and the energy budget is unchanged in form. ``None``
 (default) is the constant brake of the paper, at no extra cost. The design module
-(:mod:`jaxcable.design`, variables ``b0 .. b{K-1}``) optimises the factors.
+(:mod:`jaxcable.arresting.design`, variables ``b0 .. b{K-1}``) optimises the factors.
 """
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from .._validation import check_finite, check_positive
+from jaxcable.core.validation import check_finite, check_positive
 
 
 class BufferDevice(eqx.Module):

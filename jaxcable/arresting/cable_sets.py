@@ -4,12 +4,12 @@ r"""The four arresting cables as one scene component, at two fidelities behind o
   runs as two straight legs from the slider pulleys through the throat point of its hook, its outer
   strands (tower, ground pulley, moving block) only add length. One tension per cable,
   ``T = EA psi'(e)`` with engineering strain ``e = ell / L - 1`` (tension only, smoothed as in
-  :mod:`jaxcable.line.ale`), path length ``ell = |C - P_A| + |P_B - C| + ell_out0 - 2 u``. The
+  :mod:`jaxcable.components.ale`), path length ``ell = |C - P_A| + |P_B - C| + ell_out0 - 2 u``. The
   buffer's block coordinate ``u`` is the only state of a cable: ``m_w alpha^2 u'' = 2 T - alpha (m_w g
   + F_brake)``.
 * :class:`AleCables` (levels ``ale`` and ``full``): each cable is a :class:`CableSubsystem` (ALE
   elements over pulleys, consistent mass, buffer) and touches the hooks through the Hertz/Coulomb
-  contact of :mod:`jaxcable.arresting.contact`, checked between every hook capsule (arm, barb) and
+  contact of :mod:`jaxcable.components.contact`, checked between every hook capsule (arm, barb) and
   every element of every arresting span. Per cable, the kinematics of the state are computed once
   (:meth:`CableSubsystem.kinematics`) and shared by the contact, the accelerations, the dissipation
   and the tensions (the vector field is evaluated ~10^5 times per landing; see
@@ -31,11 +31,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._math import smooth_relu
-from ..line.ale import AleCable, axial_tension_factor, strain_energy_density
-from .buffer import BufferDevice
-from .cables import CableCoords, CableRoute, CableState, CableSubsystem, graded_fractions
-from .layout import HOOK_OF_CABLE, ArrestingLayout, span_endpoints
+from jaxcable.core.math import smooth_relu
+from jaxcable.components.ale import AleCable, axial_tension_factor, strain_energy_density
+from jaxcable.arresting.buffer import BufferDevice
+from jaxcable.arresting.cables import CableCoords, CableRoute, CableState, CableSubsystem, graded_fractions
+from jaxcable.arresting.layout import HOOK_OF_CABLE, ArrestingLayout, span_endpoints
 
 __all__ = ["AleCables", "HookPoints", "MasslessCables", "throat_weights"]
 
@@ -196,7 +196,7 @@ class AleCables(eqx.Module):
 
     subsystems: CableSubsystem
     contact: eqx.Module
-    """A :class:`jaxcable.arresting.contact.ContactLaw`."""
+    """A :class:`jaxcable.components.contact.ContactLaw`."""
     hook_radius_m: jax.Array
     cable_radius_m: jax.Array
     q0: CableCoords
@@ -209,11 +209,11 @@ class AleCables(eqx.Module):
     16 on the design case: ``contact_pairs_touching`` in the probes counts them). ``None``: every
     pair. Values never depend on it."""
     wind: eqx.Module | None = None
-    """A :class:`jaxcable.arresting.wind.WindField` loading the arresting spans (eq 45), or None
+    """A :class:`jaxcable.components.wind.WindField` loading the arresting spans (eq 45), or None
     (still air). Only the spans between the sliders are exposed: the tower runs and the block strands
     are inside the towers."""
     aero: eqx.Module | None = None
-    """:class:`jaxcable.arresting.wind.AeroCoefficients` of the cable drag (``cable_*``); required
+    """:class:`jaxcable.components.wind.AeroCoefficients` of the cable drag (``cable_*``); required
     with ``wind``."""
     wind_time_offset_s: jax.Array = eqx.field(converter=jnp.asarray, default=0.0)
     """Scene time 0 is wind time ``wind_time_offset_s`` [s] (the capture instant of a two-phase
@@ -228,7 +228,7 @@ class AleCables(eqx.Module):
 
     def _span_drag(self, kin, t):
         """Cross-flow drag on the arresting span's elements: (element_forces (n_el, 2, 3), power [W])."""
-        from .wind import cable_drag_element_forces
+        from jaxcable.components.wind import cable_drag_element_forces
 
         lo, hi = self.span_slice
         a1, a2 = kin.a1[lo:hi], kin.a2[lo:hi]
@@ -269,7 +269,7 @@ class AleCables(eqx.Module):
         H, D = layout.tower_height_m, layout.block_strand_m
         EA = float(layout.EA_N)
         T0 = float(layout.pretension_N)
-        # Green strain eps with force EA eps lambda = T0 (see jaxcable.line.ale): solve for lambda.
+        # Green strain eps with force EA eps lambda = T0 (see jaxcable.components.ale): solve for lambda.
         lam = 1.0
         for _ in range(20):
             f = EA * 0.5 * (lam**2 - 1.0) * lam - T0
@@ -416,7 +416,7 @@ class AleCables(eqx.Module):
 
 
 def _pair_law(law, hook_radius, cable_radius, h0, h1, hv0, hv1, e1, e2, v1, v2):
-    from .contact import _capsule_contact
+    from jaxcable.components.contact import _capsule_contact
 
     res = _capsule_contact(law, h0, h1, hook_radius, hv0, hv1, e1, e2, cable_radius, v1, v2)
     return res.force_on_cable_nodes, res.force_on_hook_points, res.normal_force, res.penetration

@@ -2,7 +2,7 @@ r"""A cable over pulleys meshed with ALE elements, with the mesh rules eliminate
 
 Arresting-cable paper, section III.B. One cable runs through a chain of *boundary nodes* (its two
 ends and the pulleys it passes over); between two boundary nodes a *span* is meshed with ALE elements
-(:mod:`jaxcable.line.ale`). The paper enforces the mesh rules as algebraic constraints inside an
+(:mod:`jaxcable.components.ale`). The paper enforces the mesh rules as algebraic constraints inside an
 index-3 DAE; diffrax has no DAE solver, and here every rule is linear in the coordinates, so we
 eliminate them instead (minimal coordinates; the design note ``docs/arresting_design.md`` compares
 this with stabilised penalties by measurement):
@@ -27,10 +27,10 @@ of the discretised system, not the element-wise virtual work of eqs 29-31:
 with ``T`` the exact kinetic energy of the piecewise-linear interpolated field (element by element,
 ``rhoA L/6 (|a1|^2 + a1.a2 + |a2|^2)``, ``a_i = v_i - r' sdot_i`` the material velocity at the element
 end: the consistent ALE mass of eq 31), ``V`` strain (tension only, smoothed as in
-:mod:`jaxcable.line.ale`) + gravity + counterweight energy, ``D`` the Rayleigh dissipation function
+:mod:`jaxcable.components.ale`) + gravity + counterweight energy, ``D`` the Rayleigh dissipation function
 ``sum beta EA L eps_dot^2 / 2`` of the damping term of eq 31, and ``Q_ext`` the brake and contact
 forces. This differs from eqs 29-31 by the terms concentrated at nodes that slide through material
-where the tangent or strain jumps (see :mod:`jaxcable.line.ale`): with them, the undamped discrete
+where the tangent or strain jumps (see :mod:`jaxcable.components.ale`): with them, the undamped discrete
 model conserves energy exactly, so a landing's energy budget closes. Mass is conserved exactly: the
 end material coordinates are fixed, so ``rhoA (s_end - s_start)`` is constant whatever flows over
 the pulleys.
@@ -73,9 +73,9 @@ import jax.numpy as jnp
 import numpy as np
 from jax.flatten_util import ravel_pytree
 
-from .._validation import check_finite, check_positive
-from ..line.ale import AleCable, axial_tension_factor, strain_energy_density
-from .buffer import BufferDevice
+from jaxcable.core.validation import check_finite, check_positive
+from jaxcable.components.ale import AleCable, axial_tension_factor, strain_energy_density
+from jaxcable.arresting.buffer import BufferDevice
 
 __all__ = [
     "CableCoords",

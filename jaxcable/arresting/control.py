@@ -139,7 +139,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._validation import check_choice, check_finite, check_positive
+from jaxcable.core.validation import check_choice, check_finite, check_positive
 
 __all__ = [
     "FILTER_DELAYS",

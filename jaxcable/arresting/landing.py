@@ -3,7 +3,7 @@
 :func:`run_landing` is the entry point the command line (``jaxcable land``) and the experiments use.
 The ``1dof`` level runs :func:`jaxcable.arresting.one_dof.simulate_one_dof` (vertical central
 landing only); the other levels build :func:`passive_landing_scene` and integrate it with
-:func:`jaxcable.simulate`. Default solver settings per level are in ``LEVEL_DEFAULTS`` with the
+:func:`jaxcable.core.simulate`. Default solver settings per level are in ``LEVEL_DEFAULTS`` with the
 measurement behind each (``experiments/bench_land.py``).
 """
 
@@ -15,10 +15,10 @@ import diffrax
 import jax.numpy as jnp
 import numpy as np
 
-from .._validation import check_choice
-from .buffer import BufferDevice
-from .layout import ArrestingLayout, CaptureState
-from .passive import FIDELITY_LEVELS, G_CRITERIA, LandingCriteria, passive_landing_scene
+from jaxcable.core.validation import check_choice
+from jaxcable.arresting.buffer import BufferDevice
+from jaxcable.arresting.layout import ArrestingLayout, CaptureState
+from jaxcable.arresting.passive import FIDELITY_LEVELS, G_CRITERIA, LandingCriteria, passive_landing_scene
 
 __all__ = ["LEVEL_DEFAULTS", "LEVEL_STEP_CONTROL", "LandingRun", "report_landing", "run_landing"]
 
@@ -90,8 +90,8 @@ def run_landing(
     The run returns NumPy arrays and is not differentiated, so it integrates with diffrax's plain
     while loop (``diffrax.ForwardMode()``), not the checkpointed loop that reverse-mode AD needs
     (measured: 0-4% less time on the full level, within the timing noise). Differentiable runs:
-    :func:`jaxcable.simulate` on :func:`passive_landing_scene`."""
-    from .. import enable_x64
+    :func:`jaxcable.core.simulate` on :func:`passive_landing_scene`."""
+    from jaxcable.core.config import enable_x64
 
     enable_x64()
     check_choice("fidelity", fidelity, FIDELITY_LEVELS)
@@ -100,7 +100,7 @@ def run_landing(
     buffer = BufferDevice() if buffer is None else buffer
     if fidelity == "1dof":
         return _run_one_dof(capture, layout, buffer, t_end_s, criteria)
-    from ..simulate import simulate
+    from jaxcable.core.simulate import simulate
 
     scene = passive_landing_scene(fidelity, capture, layout, buffer, t_end_s=t_end_s, **scene_kwargs)
     d_solver, d_rtol, d_atol, d_steps = LEVEL_DEFAULTS[fidelity]
@@ -132,7 +132,7 @@ def _budget_at_end(ts, energy):
 
 
 def _run_one_dof(capture, layout, buffer, t_end_s, criteria):
-    from .one_dof import OneDofParams, simulate_one_dof
+    from jaxcable.arresting.one_dof import OneDofParams, simulate_one_dof
 
     lateral = {
         k: float(getattr(capture, k))
@@ -144,7 +144,7 @@ def _run_one_dof(capture, layout, buffer, t_end_s, criteria):
             f"fidelity '1dof' models the vertical central landing only; got nonzero {lateral}: "
             "use --fidelity rigid, ale or full"
         )
-    from ..body.landing_rocket import rigid_landing_rocket
+    from jaxcable.arresting.landing_rocket import rigid_landing_rocket
 
     params = OneDofParams(
         m_r=rigid_landing_rocket(hinged_hooks=False).total_mass_kg,  # same mass as the other levels

@@ -34,7 +34,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._validation import check_finite, check_positive, check_range
+from jaxcable.core.validation import check_finite, check_positive, check_range
 
 __all__ = ["ArrestingLayout", "CaptureState", "HOOK_OF_CABLE", "span_endpoints"]
 

@@ -146,7 +146,7 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array
 
-from jaxcable._validation import check_positive
+from jaxcable.core.validation import check_positive
 
 
 G_UNIT = 9.80

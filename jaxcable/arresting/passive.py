@@ -34,11 +34,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._validation import check_choice, check_positive
-from ..scene import AbstractScene
-from .buffer import BufferDevice
-from .cable_sets import AleCables, HookPoints, MasslessCables, throat_weights
-from .layout import ArrestingLayout, CaptureState, check_hooks_inside_frame
+from jaxcable.core.validation import check_choice, check_positive
+from jaxcable.core.scene import AbstractScene
+from jaxcable.arresting.buffer import BufferDevice
+from jaxcable.arresting.cable_sets import AleCables, HookPoints, MasslessCables, throat_weights
+from jaxcable.arresting.layout import ArrestingLayout, CaptureState, check_hooks_inside_frame
 
 __all__ = [
     "FIDELITY_LEVELS",
@@ -61,7 +61,7 @@ FIDELITY_LEVELS = ("1dof", "rigid", "ale", "full")
 SAVE_SPACING_S = 1e-3
 """Default spacing of the saved samples of a passive landing [s], every level: the scene saves
 ``round(t1 / SAVE_SPACING_S) + 1`` samples over ``[0, t1]`` (:meth:`PassiveLandingScene.default_save_ts`),
-as do the sweeps (:func:`jaxcable.sweep.passive_case_fn`).
+as do the sweeps (:func:`jaxcable.studies.sweep.passive_case_fn`).
 
 The criteria a_max and sigma_max are maxima over the saved samples. The scene's old default, a
 fixed *number* (401 samples: 5 ms at 2 s, 2.5 ms at 1 s), made them depend on the run's duration:
@@ -118,7 +118,7 @@ class PassiveState(eqx.Module):
 
 class PassiveLandingScene(AbstractScene):
     """Rocket + cable set after capture. ``rocket`` is a landing rocket (rigid or flexible, see
-    :mod:`jaxcable.body.landing_rocket`); ``cables`` is :class:`MasslessCables` or :class:`AleCables`."""
+    :mod:`jaxcable.arresting.landing_rocket`); ``cables`` is :class:`MasslessCables` or :class:`AleCables`."""
 
     rocket: eqx.Module
     cables: eqx.Module
@@ -159,8 +159,8 @@ class PassiveLandingScene(AbstractScene):
 
     def _rocket_aero(self, t, rocket_state):
         """Aerodynamic point loads on the rocket, their resultant [N] and power [W]."""
-        from ..body.multibody import point_kinematics
-        from .wind import rocket_aero_loads
+        from jaxcable.components.multibody import point_kinematics
+        from jaxcable.components.wind import rocket_aero_loads
 
         if self.wind is None:
             return (), jnp.zeros(3), jnp.zeros(())
@@ -342,7 +342,7 @@ scenes unless a ``contact`` law is given (``v_d = 2.5 v_s``; reasons in :func:`p
 def scene_contact_law(v_s_m_s: float = DEFAULT_CONTACT_SLIP_M_S):
     """The scenes' hook-cable contact law (:class:`.contact.ContactLaw` defaults) with static slip
     speed ``v_s`` [m/s] and dynamic slip speed ``v_d = 2.5 v_s``."""
-    from .contact import ContactLaw
+    from jaxcable.components.contact import ContactLaw
 
     return ContactLaw(v_s=v_s_m_s, v_d=2.5 * v_s_m_s)
 
@@ -379,7 +379,7 @@ def passive_landing_scene(
     ``full``). ``cable_model="massless"`` at ``full`` keeps the flexible rocket and the sprung hooks
     and drops the cables' mass: the ``rhoA -> 0`` member of the full level, which the 1-DOF limit
     test uses (``tests/arresting/test_passive.py``). ``rocket_params``
-    (:class:`~jaxcable.body.landing_rocket.LandingRocketParams`, default Table 1) sets the rocket's
+    (:class:`~jaxcable.arresting.landing_rocket.LandingRocketParams`, default Table 1) sets the rocket's
     and the hooks' values (e.g. the hook spring ``k_h``).
 
     Defaults chosen by measurement (``experiments/bench_land.py``; 0.3 s of the design case, ale):
@@ -410,10 +410,10 @@ def passive_landing_scene(
     ``wind_time_offset_s`` [s]: air loads on the rocket and (ale/full) the arresting spans.
 
     ``save_spacing_s`` [s] (default :data:`SAVE_SPACING_S`, 1 ms) or ``n_save`` (a fixed number of
-    samples, default None): the saved grid when :func:`jaxcable.simulate` gets no ``save_ts``
+    samples, default None): the saved grid when :func:`jaxcable.core.simulate` gets no ``save_ts``
     (:meth:`PassiveLandingScene.default_save_ts`); the maxima a_max and sigma_max are taken over it.
     """
-    from ..body.landing_rocket import flexible_landing_rocket, rigid_landing_rocket
+    from jaxcable.arresting.landing_rocket import flexible_landing_rocket, rigid_landing_rocket
 
     check_choice("fidelity", fidelity, FIDELITY_LEVELS)
     if fidelity == "1dof":
@@ -465,7 +465,7 @@ def passive_landing_scene(
             damping_s=cable_damping_s,
         )
     if wind is not None:
-        from .wind import AeroCoefficients
+        from jaxcable.components.wind import AeroCoefficients
 
         aero = AeroCoefficients() if aero is None else aero
         if isinstance(cables, AleCables):

@@ -75,15 +75,15 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._validation import check_choice, check_positive
-from ..scene import AbstractScene
-from ..sweep import CAPTURED_PREFIX, AbstractCaseFunction, case_key, criteria_columns, passive_histories
-from .buffer import BufferDevice
-from .cable_sets import throat_weights
-from .control import TrackingController, filtered_measurement, measurement_noise_track, target_point
-from .layout import HOOK_OF_CABLE, ArrestingLayout, CaptureState
-from .passive import DEFAULT_CABLE_DAMPING_S, LandingCriteria, landing_outputs, passive_landing_scene, smooth_landing_outputs
-from .wind import AeroCoefficients, WindField, rocket_aero_loads
+from jaxcable.core.validation import check_choice, check_positive
+from jaxcable.core.scene import AbstractScene
+from jaxcable.studies.sweep import CAPTURED_PREFIX, AbstractCaseFunction, case_key, criteria_columns, passive_histories
+from jaxcable.arresting.buffer import BufferDevice
+from jaxcable.arresting.cable_sets import throat_weights
+from jaxcable.arresting.control import TrackingController, filtered_measurement, measurement_noise_track, target_point
+from jaxcable.arresting.layout import HOOK_OF_CABLE, ArrestingLayout, CaptureState
+from jaxcable.arresting.passive import DEFAULT_CABLE_DAMPING_S, LandingCriteria, landing_outputs, passive_landing_scene, smooth_landing_outputs
+from jaxcable.components.wind import AeroCoefficients, WindField, rocket_aero_loads
 
 __all__ = [
     "SCENARIO_SETTINGS",
@@ -278,7 +278,7 @@ def tracking_scene(
     deviated case of section IV.A); its ``z_m`` and ``vz_m_s`` are replaced by ``h`` and ``-h / t_c``.
     ``wind_speed_m_s`` defaults to the scenario's maximum steady wind. ``seed`` fixes the measurement
     noise and the gust (reproducible)."""
-    from ..body.landing_rocket import rigid_landing_rocket
+    from jaxcable.arresting.landing_rocket import rigid_landing_rocket
 
     check_choice("scenario", scenario, SCENARIO_SETTINGS)
     s = SCENARIO_SETTINGS[scenario]
@@ -383,8 +383,8 @@ def two_phase_outputs(
 def _passive_phase(out1, passive, fidelity, t_end_s, criteria, solver_settings=None, adjoint=None):
     """Phase 2 on its built scene ``passive`` with the level's solver and step control: its Result
     and phase 1's outputs ``out1`` joined with the passive outputs, the smooth maxima and ``landed``."""
-    from ..simulate import simulate
-    from .landing import LEVEL_DEFAULTS, LEVEL_STEP_CONTROL
+    from jaxcable.core.simulate import simulate
+    from jaxcable.arresting.landing import LEVEL_DEFAULTS, LEVEL_STEP_CONTROL
 
     solver, rtol, atol, steps = (solver_settings or {}).get(fidelity, LEVEL_DEFAULTS[fidelity])
     pcoeff, icoeff = LEVEL_STEP_CONTROL[fidelity]
@@ -459,7 +459,7 @@ def tracking_outputs(
 ):
     """Phase 1 alone (pure): its Result and the capture outputs (dict of arrays). ``adjoint``: a
     diffrax adjoint (e.g. ``diffrax.ForwardMode()`` for ``jax.jacfwd``)."""
-    from ..simulate import simulate
+    from jaxcable.core.simulate import simulate
 
     track = simulate(scene, scene.t_max_s, rtol=1e-6, atol=1e-6, max_steps=100_000, adjoint=adjoint)
     final = track.final_state
@@ -504,8 +504,8 @@ def run_two_phase(
 
     Phase 1 is compiled once per scenario structure; phase 2 is :func:`.landing.run_landing` at
     ``fidelity`` from the captured state and the frame's centre at capture."""
-    from .. import enable_x64
-    from .landing import run_landing
+    from jaxcable.core.config import enable_x64
+    from jaxcable.arresting.landing import run_landing
 
     enable_x64()
     check_choice("fidelity", fidelity, ("rigid", "ale", "full"))
@@ -524,7 +524,7 @@ def run_two_phase(
 
 
 class TwoPhaseCaseFunction(AbstractCaseFunction):
-    """One two-phase case for :mod:`jaxcable.sweep` (``phase="full"``): the 15 uncertain parameters
+    """One two-phase case for :mod:`jaxcable.studies.sweep` (``phase="full"``): the 15 uncertain parameters
     of Table 2 -> scalar outputs. The noise and gust seeds are derived from the sweep's seed and the
     case's inputs, so a case reproduces wherever it sits in a batch.
 
@@ -560,7 +560,7 @@ class TwoPhaseCaseFunction(AbstractCaseFunction):
         return False  # the phase-switch event's root find does not trace under shard_map
 
     def scene(self, params):
-        from .uncertainty import UNCERTAIN_PARAMETERS
+        from jaxcable.arresting.uncertainty import UNCERTAIN_PARAMETERS
 
         terminal = CaptureState(**{k: params[k] for k in UNCERTAIN_PARAMETERS[:10]})
         key = case_key(self.seed, params)
@@ -638,7 +638,7 @@ class TwoPhaseCaseFunction(AbstractCaseFunction):
         terminal-guidance point, ``o_position_m`` (n, 3) [m], ``tracking_error_m`` and
         ``true_tracking_error_m`` [m], against the measured and the true target; NaN after
         capture), ``capture_time_s``, ``captured_position_m`` (3,), ``captured``, and the passive
-        phase's histories (:func:`jaxcable.sweep.passive_histories`: time since capture)."""
+        phase's histories (:func:`jaxcable.studies.sweep.passive_histories`: time since capture)."""
         if self.host_build:
             return self.solve_histories(self.build(params))
         o = self._outputs(params, keep_histories=True)
@@ -657,7 +657,7 @@ class TwoPhaseCaseFunction(AbstractCaseFunction):
 
 def two_phase_case_fn(fidelity="rigid", *, scenario="I", seed=0, buffer=None, layout=None, gain_per_s=None,
                       t_end_s=2.0, solver=None, rtol=None, max_steps=None, cable_damping_s=DEFAULT_CABLE_DAMPING_S, **_ignored):  # fmt: skip
-    """Factory registered with :func:`jaxcable.sweep.register_case_fn` for ``phase="full"``."""
+    """Factory registered with :func:`jaxcable.studies.sweep.register_case_fn` for ``phase="full"``."""
     check_choice("scenario", scenario, SCENARIO_SETTINGS)
     if solver is not None or rtol is not None or max_steps is not None:
         raise ValueError("two-phase sweeps use the levels' default solver settings (--solver/--rtol/--max-steps: passive only)")
@@ -671,7 +671,7 @@ def two_phase_case_fn(fidelity="rigid", *, scenario="I", seed=0, buffer=None, la
 
 
 def _register():
-    from ..sweep import register_case_fn
+    from jaxcable.studies.sweep import register_case_fn
 
     register_case_fn("full", two_phase_case_fn)
 
@@ -693,7 +693,7 @@ def _to_python(out):
 
 def report_two_phase(run: TwoPhaseRun) -> dict:
     """The JSON-able summary of a two-phase run (``jaxcable land --phase full --json``)."""
-    from ..simulate import status_message
+    from jaxcable.core.simulate import status_message
 
     o = run.outputs
     out = {
@@ -743,7 +743,7 @@ def plot_two_phase(run: TwoPhaseRun, path: str):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .passive import G_CRITERIA
+    from jaxcable.arresting.passive import G_CRITERIA
 
     tr, pa = run.tracking, run.passive
     ts = np.asarray(tr.ts)

@@ -40,8 +40,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._validation import check_choice, check_positive
-from .layout import CaptureState
+from jaxcable.core.validation import check_choice, check_positive
+from jaxcable.arresting.layout import CaptureState
 
 __all__ = [
     "PARAMETER_DESCRIPTIONS",

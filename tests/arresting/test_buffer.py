@@ -12,7 +12,7 @@ from scipy.optimize import brentq
 from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.landing import run_landing
 from jaxcable.arresting.layout import ArrestingLayout, CaptureState
-from jaxcable.body.landing_rocket import rigid_landing_rocket
+from jaxcable.arresting.landing_rocket import rigid_landing_rocket
 
 
 def test_profile_factor_interpolates_and_brake_only_dissipates():

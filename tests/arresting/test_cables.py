@@ -8,7 +8,7 @@ import pytest
 
 from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.cables import CableCoords, CableRoute, CableState, CableSubsystem, graded_fractions
-from jaxcable.line.ale import AleCable
+from jaxcable.components.ale import AleCable
 
 G = 9.81
 

@@ -10,7 +10,7 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 from scipy.optimize import brentq, minimize  # noqa: E402
 
-from jaxcable.arresting.contact import (  # noqa: E402
+from jaxcable.components.contact import (  # noqa: E402
     ContactLaw,
     capsule_contact,
     contact_power,

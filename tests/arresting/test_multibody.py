@@ -18,8 +18,8 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
-from jaxcable.body import multibody as mb  # noqa: E402
-from jaxcable.body.landing_rocket import (  # noqa: E402
+from jaxcable.components import multibody as mb  # noqa: E402
+from jaxcable.arresting.landing_rocket import (  # noqa: E402
     LandingRocketParams,
     flexible_landing_rocket,
     rigid_landing_rocket,

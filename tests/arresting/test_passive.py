@@ -16,7 +16,7 @@ from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.landing import report_landing, run_landing
 from jaxcable.arresting.layout import ArrestingLayout, CaptureState
 from jaxcable.arresting.passive import SAVE_SPACING_S, passive_landing_scene, smooth_landing_outputs
-from jaxcable.arresting.wind import WindField
+from jaxcable.components.wind import WindField
 
 KEYS = ("z_max_m", "a_max_g", "sigma_max_mpa", "stop_time_s", "criteria_met", "solver_status")
 
@@ -62,7 +62,7 @@ def test_full_level_converges_to_one_dof_with_stiff_massless_cables_and_stiff_ho
     cable mass and no hook compliance: with Table 1's hook spring (1.5e5 N/m) the hooks' rotation
     under load adds stroke (z_max +1.2%, a_max -1.3%, stop time +3.6%, measured in session 6), and
     the ALE cable's own mass has kinetic energy of the counterweights' order (docs/arresting_design.md)."""
-    from jaxcable.body.landing_rocket import LandingRocketParams
+    from jaxcable.arresting.landing_rocket import LandingRocketParams
 
     # rtol 1e-5, not the level's 1e-4: the 1000x stiffer, damped cables are a stiffer problem than the
     # default scene, and at 1e-4 Bosh3's error in sigma_max (which carries the damping force

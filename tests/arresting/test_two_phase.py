@@ -85,7 +85,7 @@ def test_centre_vertical_still_air_tracks_to_zero_and_matches_passive_design_cas
     assert float(out["tracking_error_at_capture_m"]) < 1e-6
     # captured centred, vertical, at 20 m/s: the passive phase is the design case of section II.B
     from jaxcable.arresting.passive import landing_outputs, passive_landing_scene
-    from jaxcable.simulate import simulate
+    from jaxcable.core.simulate import simulate
 
     # the passive phase keeps the (still) air: the rocket's own drag at 20 m/s acts in both
     ref_scene = passive_landing_scene("rigid", t_end_s=1.5, wind=scene.wind, aero=scene.aero)
@@ -150,7 +150,7 @@ def test_reverse_mode_gradient_equals_forward_mode():
     forward mode (checked against central differences above) to 1e-7. Regression: on jaxlib 0.10.2
     the reverse-mode program failed to run ("No registered implementation for untyped custom call
     to lapack_dtrsm_ffi for Host") because the passive phase starts from the traced captured state
-    (see ``jaxcable.body.multibody._spd_solve``)."""
+    (see ``jaxcable.components.multibody._spd_solve``)."""
     terminal = deviated_case()
 
     def f(a_p, adjoint=None):

@@ -20,7 +20,7 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 from scipy.signal import welch  # noqa: E402
 
-from jaxcable.arresting.wind import (  # noqa: E402
+from jaxcable.components.wind import (  # noqa: E402
     AeroCoefficients,
     WindField,
     cable_drag_element_forces,
@@ -31,8 +31,8 @@ from jaxcable.arresting.wind import (  # noqa: E402
     rocket_aero_loads,
     rocket_element_force,
 )
-from jaxcable.body import multibody as mb  # noqa: E402
-from jaxcable.body.landing_rocket import flexible_landing_rocket, rigid_landing_rocket  # noqa: E402
+from jaxcable.components import multibody as mb  # noqa: E402
+from jaxcable.arresting.landing_rocket import flexible_landing_rocket, rigid_landing_rocket  # noqa: E402
 
 RHO = 1.225
 AERO = AeroCoefficients()

@@ -59,11 +59,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._validation import check_choice, check_positive
-from .arresting.buffer import BufferDevice
-from .arresting.layout import ArrestingLayout, CaptureState
-from .arresting.passive import DEFAULT_CABLE_DAMPING_S, G_CRITERIA, SAVE_SPACING_S, LandingCriteria
-from .arresting.uncertainty import (
+from jaxcable.core.validation import check_choice, check_positive
+from jaxcable.arresting.buffer import BufferDevice
+from jaxcable.arresting.layout import ArrestingLayout, CaptureState
+from jaxcable.arresting.passive import DEFAULT_CABLE_DAMPING_S, G_CRITERIA, SAVE_SPACING_S, LandingCriteria
+from jaxcable.arresting.uncertainty import (
     CAPTURE_VZ_M_S,
     PHASES,
     SCENARIOS,
@@ -234,14 +234,14 @@ class PassiveCaseFunction(AbstractCaseFunction):
 
     def build(self, params):
         """The passive scene of one case (a :class:`PassiveLandingScene`)."""
-        from .arresting.passive import passive_landing_scene
+        from jaxcable.arresting.passive import passive_landing_scene
 
         capture = CaptureState(
             **{k: params[k] for k in UNCERTAIN_PARAMETERS[:10]}, vz_m_s=self.vz_m_s
         )
         air = {}
         if self.wind:
-            from .arresting.wind import WindField
+            from jaxcable.components.wind import WindField
 
             air["wind"] = WindField(
                 speed_m_s=params["wind_speed_m_s"], angle_deg=params["wind_angle_deg"],
@@ -255,8 +255,8 @@ class PassiveCaseFunction(AbstractCaseFunction):
     def _simulate(self, scene):
         import diffrax
 
-        from .arresting.landing import LEVEL_STEP_CONTROL
-        from .simulate import simulate
+        from jaxcable.arresting.landing import LEVEL_STEP_CONTROL
+        from jaxcable.core.simulate import simulate
 
         pcoeff, icoeff = LEVEL_STEP_CONTROL[self.fidelity]
         return simulate(
@@ -281,7 +281,7 @@ class PassiveCaseFunction(AbstractCaseFunction):
 
     def solve(self, scene):
         """Scalar outputs of one built case (see the class docstring)."""
-        from .arresting.passive import landing_outputs
+        from jaxcable.arresting.passive import landing_outputs
 
         r = self._simulate(scene)
         o = landing_outputs(r.ts, r.probes, r.status, self.criteria)
@@ -322,7 +322,7 @@ class PassiveCaseFunction(AbstractCaseFunction):
 
 
 def passive_histories(result) -> dict:
-    """Figs 18-20 from a passive scene's :class:`~jaxcable.simulate.Result`: ``ts`` (time since
+    """Figs 18-20 from a passive scene's :class:`~jaxcable.core.simulate.Result`: ``ts`` (time since
     capture [s]), ``drop_m`` [m], ``acceleration_g`` (|a| of the centre of mass [g]),
     ``stress_max_mpa`` [MPa] on the saved grid (n_save,); NaN after a failed run ended."""
     finite = jnp.isfinite(result.ts)
@@ -370,7 +370,7 @@ def passive_case_fn(
       samples over 2 s, the scene's old default) misses a_max by up to 0.13 %,
       2.5 ms by 0.03 %, 1 ms by 4e-5 (40 rigid cases), at no measurable extra run time.
     """
-    from .arresting.landing import LEVEL_DEFAULTS
+    from jaxcable.arresting.landing import LEVEL_DEFAULTS
 
     check_choice("fidelity", fidelity, SWEEP_FIDELITIES)
     d_solver, d_rtol, d_atol, d_steps = LEVEL_DEFAULTS[fidelity]
@@ -406,12 +406,12 @@ def case_fn_for(phase: str, fidelity: str = "rigid", **kwargs) -> AbstractCaseFu
     """The case function of a phase (``passive`` or ``full``) at a fidelity level."""
     check_choice("phase", phase, PHASES)
     if phase == "full" and phase not in _CASE_FACTORIES:
-        from .arresting import two_phase  # noqa: F401  (registers the two-phase case function)
+        from jaxcable.arresting import two_phase  # noqa: F401  (registers the two-phase case function)
     if phase not in _CASE_FACTORIES:
         raise ValueError(
             f"phase {phase!r}: no case function is available yet (the two-phase simulation, active "
             "tracking then passive deceleration, is not implemented); register one with "
-            "jaxcable.sweep.register_case_fn, or use phase 'passive'"
+            "jaxcable.studies.sweep.register_case_fn, or use phase 'passive'"
         )
     return _CASE_FACTORIES[phase](fidelity, **kwargs)
 
@@ -616,7 +616,7 @@ def merge_sweep_csvs(paths: Sequence, out) -> dict:
 
 
 def _status_text(code: int) -> str:
-    from .simulate import status_message
+    from jaxcable.core.simulate import status_message
 
     return status_message(code).replace(",", ";").replace("\n", " ")
 
@@ -664,7 +664,8 @@ def run_sweep(
     roundoff and may differ on resume.
     ``on_chunk(case_indices)`` is called after each chunk is durable (logging, tests).
     """
-    from . import __version__, enable_x64
+    from jaxcable.core.provenance import __version__
+    from jaxcable.core.config import enable_x64
 
     enable_x64()
     check_positive("batch_size", batch_size)
@@ -859,7 +860,7 @@ def run_qmc_sweep(
 
 def run_histories(case_fn: AbstractCaseFunction, samples: dict, indices, *, devices=None) -> dict:
     """Time histories (``case_fn.histories``) of the cases ``indices`` in one batch: {name: (k, n_save)}."""
-    from . import enable_x64
+    from jaxcable.core.config import enable_x64
 
     enable_x64()
     indices = np.asarray(indices, dtype=int)
@@ -925,7 +926,7 @@ def _captured_state_ranges(table: dict, good: np.ndarray) -> dict | None:
     names = sorted((k for k in table if k.startswith(CAPTURED_PREFIX)), key=lambda k: order.index(k) if k in order else len(order))
     if not names:
         return None
-    from .arresting.uncertainty import scenario_ranges
+    from jaxcable.arresting.uncertainty import scenario_ranges
 
     table8 = scenario_ranges("I", "passive")  # the same captured-state ranges in every scenario
     use = good & np.asarray(table["captured"], dtype=bool)
@@ -1103,7 +1104,7 @@ def plot_tracking(histories: dict, path, title: str = "", tracking_time_s: float
 
 
 def _build_parser() -> argparse.ArgumentParser:
-    from .simulate import SOLVERS
+    from jaxcable.core.simulate import SOLVERS
 
     def positive_int(name):
         def parse(text):
@@ -1166,7 +1167,7 @@ def _build_parser() -> argparse.ArgumentParser:
 def sweep_main(argv: list[str] | None = None) -> int:
     """``jaxcable sweep``: run (or resume) a sweep, print its summary. Exit status 0 when every case
     ran (whatever the success rate), 1 when some failed numerically, 2 on bad arguments."""
-    from . import enable_x64
+    from jaxcable.core.config import enable_x64
 
     args = _build_parser().parse_args(argv)
     enable_x64()
@@ -1232,7 +1233,7 @@ def sweep_main(argv: list[str] | None = None) -> int:
         k = min(args.plot_cases, len(table["case"]))
         hist = run_histories(case_fn, samples, np.asarray(table["case"][:k], int))
         if args.phase == "full":
-            from .arresting.uncertainty import scenario_settings
+            from jaxcable.arresting.uncertainty import scenario_settings
 
             t_c = scenario_settings(args.scenario)["t_c_s"]
             summary["plots"].append(plot_tracking(hist, f"{args.plot}_tracking.png", f"{title}: tracking phase, first {k} cases", t_c))

@@ -4,7 +4,7 @@ A scene is an ``eqx.Module`` (a PyTree): its array fields are parameters (sweepa
 differentiable), its static fields are structure (array sizes, which components it has). A concrete
 scene composes only the components it needs, so a cheap scene is cheap by construction.
 
-:func:`jaxcable.simulate` needs from a scene:
+:func:`jaxcable.core.simulate` needs from a scene:
 
 * ``initial_state()``: the state PyTree at ``t = 0``;
 * ``vector_field(t, state)``: its time derivative;

@@ -48,7 +48,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._validation import check_choice, check_positive
+from jaxcable.core.validation import check_choice, check_positive
 
 __all__ = [
     "BenchCase",
@@ -131,14 +131,14 @@ def _float(x):
 
 
 def _simulate_outputs(scene, t1, solver, rtol, atol, max_steps):
-    from .simulate import simulate
+    from jaxcable.core.simulate import simulate
 
     res = simulate(scene, t1, solver=solver, rtol=rtol, atol=atol, max_steps=max_steps)
     return res.outputs, res.num_steps, res.num_rejected, res.status
 
 
 def _throw_runner(case: BenchCase):
-    from .scenes import line_throwing_scene
+    from jaxcable.throw import line_throwing_scene
 
     scene = line_throwing_scene(case.angle_deg, case.segment_length_m, case.rope_length_m)
 
@@ -154,10 +154,10 @@ def one_dof_params():
     """:class:`~jaxcable.arresting.one_dof.OneDofParams` of the design case with the mass, layout and
     buffer of the other passive levels (the mapping :func:`jaxcable.arresting.landing.run_landing`
     uses for level ``1dof``)."""
-    from .arresting.buffer import BufferDevice
-    from .arresting.layout import ArrestingLayout
-    from .arresting.one_dof import OneDofParams
-    from .body.landing_rocket import rigid_landing_rocket
+    from jaxcable.arresting.buffer import BufferDevice
+    from jaxcable.arresting.layout import ArrestingLayout
+    from jaxcable.arresting.one_dof import OneDofParams
+    from jaxcable.arresting.landing_rocket import rigid_landing_rocket
 
     layout, buffer = ArrestingLayout(), BufferDevice()
     return OneDofParams(
@@ -175,8 +175,8 @@ def _one_dof_runner(case: BenchCase):
     """The 1-DOF model of section II.B (:func:`one_dof_params`)."""
     import diffrax
 
-    from .arresting.one_dof import simulate_one_dof
-    from .simulate import make_solver
+    from jaxcable.arresting.one_dof import simulate_one_dof
+    from jaxcable.core.simulate import make_solver
 
     params = one_dof_params()
 
@@ -195,7 +195,7 @@ def _one_dof_runner(case: BenchCase):
 def _passive_runner(case: BenchCase):
     if case.level == "1dof":
         return _one_dof_runner(case)
-    from .arresting.passive import passive_landing_scene
+    from jaxcable.arresting.passive import passive_landing_scene
 
     kw = dict(n_span_elements=case.n_span_elements, n_fine=case.n_fine) if case.level != "rigid" else {}
     scene = passive_landing_scene(case.level, t_end_s=case.t_end_s, **kw)
@@ -210,9 +210,9 @@ def _passive_runner(case: BenchCase):
 
 def _two_phase(scene, t_end_s, solver, rtol, atol, max_steps):
     """Both phases at one solver setting (the outputs of ``two_phase_outputs`` that we compare)."""
-    from .arresting.passive import passive_landing_scene
-    from .arresting.two_phase import _captured_state, _event_occurred, _interp
-    from .simulate import simulate
+    from jaxcable.arresting.passive import passive_landing_scene
+    from jaxcable.arresting.two_phase import _captured_state, _event_occurred, _interp
+    from jaxcable.core.simulate import simulate
 
     track = simulate(scene, scene.t_max_s, solver=solver, rtol=rtol, atol=atol, max_steps=max_steps)
     final = track.final_state
@@ -239,12 +239,12 @@ _two_phase_jit = eqx.filter_jit(_two_phase)
 
 
 def _two_phase_runner(case: BenchCase):
-    from .arresting.two_phase import tracking_scene
+    from jaxcable.arresting.two_phase import tracking_scene
 
     scene = tracking_scene(scenario=case.scenario)
 
     def run(solver, rtol, atol, max_steps):
-        from .simulate import make_solver
+        from jaxcable.core.simulate import make_solver
 
         return _two_phase_jit(scene, case.t_end_s, make_solver(solver), rtol, atol, max_steps)
 
@@ -289,7 +289,7 @@ def _short_error(err: Exception) -> str:
 def _status_name(code: int) -> str:
     if code == -1:
         return "nan_outputs"
-    from .simulate import status_message
+    from jaxcable.core.simulate import status_message
 
     return status_message(code)
 
@@ -349,8 +349,8 @@ def run_bench(case_names=DEFAULT_CASE_NAMES, solvers=("tsit5",), rtols=(1e-4, 1e
     """Run the short benchmark: for each case, a reference at ``reference_rtol`` (with
     ``reference_solver``; ``None``: the first of ``solvers``, which compiles nothing extra) and each
     solver at each tolerance (atol = rtol). Returns a JSON-ready dict: ``machine`` (see
-    :func:`jaxcable.provenance.machine_info`), ``rows`` (one per run), ``references``."""
-    from .provenance import machine_info
+    :func:`jaxcable.core.provenance.machine_info`), ``rows`` (one per run), ``references``."""
+    from jaxcable.core.provenance import machine_info
 
     for r in list(rtols) + [reference_rtol]:
         check_positive("rtol", r)
@@ -482,8 +482,8 @@ def _json_safe(x):
 
 def bench_main(argv: list[str] | None = None) -> int:
     """``jaxcable bench``: run :func:`run_bench` and print a table (or ``--json``); ``--out`` CSV."""
-    from . import enable_x64
-    from .simulate import SOLVERS
+    from jaxcable.core.config import enable_x64
+    from jaxcable.core.simulate import SOLVERS
 
     args = _parse_args(argv)
     enable_x64(not args.float32)

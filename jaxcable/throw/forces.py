@@ -12,8 +12,8 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from ._math import safe_norm, smooth_step
-from ._validation import check_choice, check_positive
+from jaxcable.core.math import safe_norm, smooth_step
+from jaxcable.core.validation import check_choice, check_positive
 
 _DRAG_FORMS = ("standard", "per_axis")
 

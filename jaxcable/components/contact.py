@@ -26,7 +26,7 @@ e                  ``ContactLaw.e``           force exponent (1.5: Hertz point c
 c                  ``ContactLaw.c``           Hunt-Crossley damping factor [s/m] (see below)
 mu_s, mu_d         ``ContactLaw.mu_s/_d``     static / dynamic friction coefficients [-]
 v_s, v_d           ``ContactLaw.v_s/_d``      static / dynamic transition slip speeds [m/s]
-STEP               ``jaxcable._math.cubic_step``  the Appendix's STEP function
+STEP               ``jaxcable.core.math.cubic_step``  the Appendix's STEP function
 f_n                ``normal_force``           normal contact force, >= 0 [N]
 f_tau tau          ``friction`` (3,)          tangential (friction) force on the cable [N]
 n                  ``normal``                 unit normal from the hook axis to the cable axis
@@ -118,8 +118,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array
 
-from jaxcable._math import cubic_step, safe_norm, safe_normalize
-from jaxcable._validation import check_finite, check_positive, check_range
+from jaxcable.core.math import cubic_step, safe_norm, safe_normalize
+from jaxcable.core.validation import check_finite, check_positive, check_range
 
 __all__ = [
     "DEFAULT_EFFECTIVE_MASS",

@@ -73,8 +73,8 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from .._math import smooth_relu, smooth_step
-from .._validation import check_positive
+from jaxcable.core.math import smooth_relu, smooth_step
+from jaxcable.core.validation import check_positive
 
 __all__ = [
     "AleCable",

@@ -93,8 +93,8 @@ import jax.numpy as jnp
 import numpy as np
 from jax.scipy.linalg import cho_factor, cho_solve
 
-from .._math import safe_normalize
-from .._validation import _concrete, check_finite, check_positive
+from jaxcable.core.math import safe_normalize
+from jaxcable.core.validation import _concrete, check_finite, check_positive
 
 __all__ = [
     "MasslessBeams",

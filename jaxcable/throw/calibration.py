@@ -2,7 +2,7 @@
 descent through the simulator (optax).
 
 The paper gives no drag coefficients, rope diameter or pull-out force. :func:`fit_throw` fits up to
-three positive scalars of a :class:`~jaxcable.scenes.line_throwing.LineThrowingScene`, each in log
+three positive scalars of a :class:`~jaxcable.throw.scene.LineThrowingScene`, each in log
 space (so they stay positive), to the 30 deg flight test: Table 3's test row (range, maximum speed,
 flight time) and the radar speeds at 1-4 s (section 4.3). The 40 deg test is held out.
 """
@@ -18,7 +18,7 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
-from .simulate import simulate
+from jaxcable.core.simulate import simulate
 
 #: The 30 deg flight test (paper Table 3 test row and section 4.3 radar speeds).
 TEST_30DEG = {
@@ -103,7 +103,7 @@ def fit_throw(
         steps: optimiser steps.
         learning_rate: Adam step in log space (0.05 = about 5% per step).
         callback: ``callback(step, values, loss)`` after each step (progress reporting).
-        sim_kw: passed to :func:`jaxcable.simulate` (t1, solver, rtol, ...).
+        sim_kw: passed to :func:`jaxcable.core.simulate` (t1, solver, rtol, ...).
 
     Returns:
         ``(fitted_scene, history)``.

@@ -51,7 +51,7 @@ arrays (``capacity`` links); ``k = floor(S / l)`` links are full, link ``k+1`` i
 * Payout rate: rope leaves the box at the rate the tail end's material moves forward along the rope,
   ``dS/dt = softplus(v_tail . u)`` (width ``payout_smoothing_mps``); nothing is pushed back into the box.
 * The mass joining the tail comes from rest. Its momentum is supplied by the pull-out model
-  (:mod:`jaxcable.forces`): ``MomentumFluxPullOut`` applies ``-rho dS/dt v_tail`` (the exact balance,
+  (:mod:`jaxcable.throw.forces`): ``MomentumFluxPullOut`` applies ``-rho dS/dt v_tail`` (the exact balance,
   ``rho v^2`` in a straight pull); ``NoPullOut`` lets new rope appear already moving (what the paper's
   Kane equations with ``m_i a_i`` and a growing ``m_n`` imply: it does not conserve momentum).
 
@@ -73,8 +73,8 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float, Int
 
-from .._math import cubic_step, smooth_relu
-from .._validation import check_positive
+from jaxcable.core.math import cubic_step, smooth_relu
+from jaxcable.core.validation import check_positive
 
 
 class SegmentRope(eqx.Module):

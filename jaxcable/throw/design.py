@@ -5,9 +5,9 @@ optimum (about 35 deg with the calibrated model) and then falls, while "with the
 the time of the rocket flying in the air increases, and landing velocity of the rocket also
 increased". A rocket that must land its line on a ship's deck without harm has a landing-speed
 limit, so the longest admissible throw is a trade-off. This module poses it on the machinery of
-:mod:`jaxcable.design` (the scaled-logistic :class:`~jaxcable.design.DesignSpace`, the optax loop
-:func:`~jaxcable.design.optax_minimise` and the Nelder-Mead baseline
-:func:`~jaxcable.design.nelder_mead_minimise`) with gradients through the diffrax solve and the
+:mod:`jaxcable.arresting.design` (the scaled-logistic :class:`~jaxcable.arresting.design.DesignSpace`, the optax loop
+:func:`~jaxcable.arresting.design.optax_minimise` and the Nelder-Mead baseline
+:func:`~jaxcable.arresting.design.nelder_mead_minimise`) with gradients through the diffrax solve and the
 differentiable impact event.
 
 Design variables (``THROW_VARIABLES``; choose any subset):
@@ -15,7 +15,7 @@ Design variables (``THROW_VARIABLES``; choose any subset):
 * ``angle_deg``: launch elevation [deg].
 * ``rope_diameter_m``: rope diameter [m]. The rope stays of the calibrated material: its linear
   density scales as ``d^2`` from the scene's (0.0693 kg/m at 10 mm, ``CALIBRATION`` of
-  :mod:`jaxcable.scenes.line_throwing`), its drag area ``d l`` as ``d``, at the calibrated drag
+  :mod:`jaxcable.throw.scene`), its drag area ``d l`` as ``d``, at the calibrated drag
   coefficient.
 * ``rope_linear_density_kg_per_m``: the linear density itself [kg/m]; when chosen, it overrides the
   ``d^2`` scaling (a different material).
@@ -45,7 +45,7 @@ Readings and choices, written down:
   README's segment study moves the range by 0.1 % from 1 m to 5 m segments; the experiment re-checks
   the designs at 2 m segments.
 * Calibration (the fit of unknown drag coefficients and density to the 30 deg flight test) is the
-  other use of the same gradients; it lives in :mod:`jaxcable.calibration` and is not repeated here.
+  other use of the same gradients; it lives in :mod:`jaxcable.throw.calibration` and is not repeated here.
 * **Measured** (``python experiments/design_throw.py --steps 60 --lr 0.2 --nm-evals 80``, 2 busy
   cores): from the flight-tested design (30 deg, 10 mm: 618.6 m, 58.7 m/s, 4446 N: over the pull
   limit) both optimisers reach 22.2-22.3 deg and a 7.2 mm rope: 715.5 m (+16 %), landing at
@@ -64,9 +64,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._validation import check_choice, check_positive
-from .design import DesignSpace, _float_array, nelder_mead_minimise, optax_minimise, value_and_grad_by_mode
-from .scenes.line_throwing import LineThrowingScene, line_throwing_scene
+from jaxcable.core.validation import check_choice, check_positive
+from jaxcable.arresting.design import DesignSpace, _float_array, nelder_mead_minimise, optax_minimise, value_and_grad_by_mode
+from jaxcable.throw.scene import LineThrowingScene, line_throwing_scene
 
 __all__ = [
     "THROW_BOUNDS",
@@ -239,7 +239,7 @@ def throw_outputs(problem: ThrowDesignProblem, x, adjoint=None) -> dict:
     """One flight at design ``x`` (k,): ``range_m``, ``impact_speed_mps``, ``max_tension_N`` (hard)
     and ``smooth_max_tension_N`` (soft maximum), ``flight_time_s``, ``deployed_rope_m``, ``landed``
     (the impact event occurred), ``status`` and ``num_steps``. Pure."""
-    from .simulate import simulate
+    from jaxcable.core.simulate import simulate
 
     res = simulate(
         throw_design_scene(problem, x), problem.t_max_s, solver=problem.solver, rtol=problem.rtol,
@@ -312,7 +312,7 @@ def _record(problem):
 
 def optimise_throw(problem: ThrowDesignProblem, x0, steps: int = 30, learning_rate: float = 0.1, optimizer=None, callback=None):
     """Adam (optax) on the unconstrained variables from ``x0``: a
-    :class:`~jaxcable.design.DesignHistory` whose ``worst_hard`` columns are ``THROW_CRITERIA`` and
+    :class:`~jaxcable.arresting.design.DesignHistory` whose ``worst_hard`` columns are ``THROW_CRITERIA`` and
     whose ``success_rate`` is 1 where the flight landed within the limits."""
     return optax_minimise(
         problem.space, lambda u: throw_objective_and_grad(problem, u), x0, steps=steps, optimizer=optimizer,

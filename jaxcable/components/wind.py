@@ -8,7 +8,7 @@ section III.D.2 (eqs 43-45), Tables 2 and 4, section IV.
   (eq 44, read for every flow direction, plus viscous cross-flow) and :func:`crossflow_element_force`
   (independence principle, for cables).
 * :func:`rocket_aero_loads`: the ``point_forces`` entries of
-  :meth:`jaxcable.body.landing_rocket.LandingRocket.derivative` (rigid and flexible rocket).
+  :meth:`jaxcable.arresting.landing_rocket.LandingRocket.derivative` (rigid and flexible rocket).
 * :func:`cable_drag_element_forces` (per element end, the input of
   :meth:`jaxcable.arresting.cables.CableSubsystem.material_point_forces`) and
   :func:`cable_drag_nodal_forces` (lumped on the nodes of a polyline).
@@ -138,8 +138,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._math import safe_norm, safe_normalize
-from .._validation import _concrete, check_finite, check_positive, check_range
+from jaxcable.core.math import safe_norm, safe_normalize
+from jaxcable.core.validation import _concrete, check_finite, check_positive, check_range
 
 __all__ = [
     "AIR_DENSITY_KG_M3",
@@ -490,7 +490,7 @@ def rocket_aero_points(rocket, elements_per_body: int):
     element length [m])``.
 
     Body ``b`` is the shell segment ``[L b/nb, L (b+1)/nb]`` of the rocket axis (``L`` = rocket length;
-    :mod:`jaxcable.body.landing_rocket`); its frame is parallel to the rocket frame when undeformed,
+    :mod:`jaxcable.arresting.landing_rocket`); its frame is parallel to the rocket frame when undeformed,
     with its origin at the body's CoM, so an axis point at height ``z`` is ``(0, 0, z) - com_b``.
     """
     nb, m = rocket.n_bodies, elements_per_body
@@ -514,7 +514,7 @@ def rocket_aero_loads(rocket, rocket_state, wind: WindField, t, params: AeroCoef
     exactly eq 44's ``C q S_ref`` totals; the planform of an element is ``2 R_r l``. The hooks are not
     loaded (module docstring).
     """
-    from ..body.multibody import body_poses, point_kinematics
+    from jaxcable.components.multibody import body_poses, point_kinematics
 
     bodies, local, element = rocket_aero_points(rocket, params.rocket_elements_per_body)
     nb = rocket.n_bodies

@@ -16,7 +16,7 @@ import diffrax
 import optimistix as optx
 from jaxtyping import Array, PyTree
 
-from ._validation import check_choice, check_positive
+from jaxcable.core.validation import check_choice, check_positive
 
 SOLVERS = {
     "euler": diffrax.Euler,
@@ -209,7 +209,7 @@ def simulate(
     """Integrate a scene from t = 0 to ``t1`` [s] (or to its terminal event).
 
     Args:
-        scene: an :class:`~jaxcable.scene.AbstractScene`.
+        scene: an :class:`~jaxcable.core.scene.AbstractScene`.
         t1: final time [s] if no event ends the run first.
         solver: a name in ``SOLVERS`` or a diffrax solver instance.
         rtol, atol: tolerances of the PID step-size controller (mixed, on the state).

@@ -11,8 +11,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from .._math import safe_normalize
-from .._validation import _concrete, check_positive
+from jaxcable.core.math import safe_normalize
+from jaxcable.core.validation import _concrete, check_positive
 
 
 class PointRocket(eqx.Module):

@@ -35,7 +35,7 @@ Pieces
   design with many variables where gradients pay (``experiments/bench_design_profile.py``).
 * :func:`cvar` (exact, sort-based) and :func:`smooth_cvar` (sort-free, smooth).
 * :func:`optax_minimise`, :func:`lbfgs_minimise` and :func:`nelder_mead_minimise`: the loops for any objective on a
-  :class:`DesignSpace` (the line-throwing design of :mod:`jaxcable.line_design` uses them too).
+  :class:`DesignSpace` (the line-throwing design of :mod:`jaxcable.throw.design` uses them too).
 * :func:`design_main`: the ``jaxcable design`` command line (``--scene throw``: the line-throwing
   launch design).
 
@@ -100,11 +100,11 @@ against central differences in float64 (``tests/test_design.py``) and agreeing t
   ~2048 x 70 floats per case, 37 MB at n = 32. Its cost does not grow with the number of design
   variables: 17 variables at n = 16 cost 0.78 s against 0.24 s forward
   (``bench_design_profile.md``), which is what makes L-BFGS beat Nelder-Mead there.
-  ``BacksolveAdjoint`` cannot be used: :func:`jaxcable.simulate` saves its probes
+  ``BacksolveAdjoint`` cannot be used: :func:`jaxcable.core.simulate` saves its probes
   with ``SubSaveAt``, which diffrax's backsolve adjoint does not support.
 
 Cost (gradient call / forward call, rigid level, m_w and F_f, 2-core AMD EPYC, JAX 0.10.2 CPU,
-float64; session 11, after the rocket's Newton-Euler path in :mod:`jaxcable.body.multibody`;
+float64; session 11, after the rocket's Newton-Euler path in :mod:`jaxcable.components.multibody`;
 ``experiments/bench_free_body.py``, ``experiments/bench_design.py --sections chunk cost``):
 forward mode 2.6-2.8x at n = 8, 2.9-3.0x at n = 32, 2.9-3.2x at n = 64 (batch chunks "auto");
 reverse mode 3.8-4.1x. The goal of <= 3x is met by forward mode up to n = 32 and sits at it at
@@ -213,12 +213,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._validation import check_choice, check_finite, check_positive, check_range
-from .arresting.buffer import BufferDevice
-from .arresting.cable_sets import AleCables
-from .arresting.landing import LEVEL_DEFAULTS, LEVEL_STEP_CONTROL
-from .arresting.layout import ArrestingLayout, CaptureState
-from .arresting.passive import (
+from jaxcable.core.validation import check_choice, check_finite, check_positive, check_range
+from jaxcable.arresting.buffer import BufferDevice
+from jaxcable.arresting.cable_sets import AleCables
+from jaxcable.arresting.landing import LEVEL_DEFAULTS, LEVEL_STEP_CONTROL
+from jaxcable.arresting.layout import ArrestingLayout, CaptureState
+from jaxcable.arresting.passive import (
     DEFAULT_CABLE_DAMPING_S,
     FIDELITY_LEVELS,
     LandingCriteria,
@@ -368,7 +368,7 @@ class DesignSpace(eqx.Module):
     ``x = lower + (upper - lower) * sigmoid(u)`` maps any ``u`` in R^k into the open box; the
     optimisers work in ``u``. Build one with :meth:`from_names`. The space is generic: ``catalogue``
     names the variables one may choose (the buffer design's ``DESIGN_VARIABLES`` by default; the
-    line-throwing design of :mod:`jaxcable.line_design` passes its own).
+    line-throwing design of :mod:`jaxcable.throw.design` passes its own).
     """
 
     names: tuple = eqx.field(static=True)
@@ -744,7 +744,7 @@ def capture_reference(layout: ArrestingLayout | None = None) -> float:
     """Capture margin [m] of a centred, vertical rocket with the frame at rest at the centre: the
     smallest of the four hooks' margins of :meth:`TrackingScene.capture_margins` at t = 0 (the
     horizontal geometry does not depend on the height)."""
-    from .arresting.two_phase import tracking_scene
+    from jaxcable.arresting.two_phase import tracking_scene
 
     if layout is None and _CAPTURE_REFERENCE:  # building the scene eagerly takes seconds: memo
         return _CAPTURE_REFERENCE[0]
@@ -780,7 +780,7 @@ def design_problem(
     rigid) or None (default): ``"full"`` when ``a_p`` is a design variable, else ``"passive"``
     (:func:`default_phase`). ``settings`` go to :class:`DesignProblem` (``t_end_s``, ``rtol``,
     ``gradient``, ``gain_per_s``, ...)."""
-    from .arresting.uncertainty import captures_from_samples, halton_samples, scenario_settings
+    from jaxcable.arresting.uncertainty import captures_from_samples, halton_samples, scenario_settings
 
     space = DesignSpace.from_names(variables, bounds)
     _check_count("n", n, 1, " (captures in the batch)")
@@ -834,7 +834,7 @@ def paper_start(problem: DesignProblem) -> jax.Array:
     factors of 1 (the constant brake); a variable other than those takes the middle of its bounds.
     What is not a design variable keeps ``problem.buffer``'s value: with ``--vars m_w,profile:K`` the
     brake's F_f is Table 1's 3.13e5 N (the default ``BufferDevice``), not eq 19's 3.0886e5 N."""
-    from .arresting.one_dof import paper_design
+    from jaxcable.arresting.one_dof import paper_design
 
     p = paper_design()
     # a_p: Table 4's gain of the problem's scenario (2, 5, 6 1/s for I, II, III)
@@ -883,7 +883,7 @@ def _scene(problem: DesignProblem, capture: CaptureState, x):
 
 def _host_built_scenes(fidelity, captures: CaptureState, layout, buffer, t_end_s, cable_damping_s):
     """The passive scenes of a batch of concrete captures at level ale or full, stacked (n, ...)."""
-    from .sweep import _stack_cases
+    from jaxcable.studies.sweep import _stack_cases
 
     n = int(np.shape(captures.x_m)[0])
     one = lambda j: jax.tree_util.tree_map(lambda v: v[j], captures)  # noqa: E731
@@ -905,7 +905,7 @@ def _with_buffer(scene, buffer: BufferDevice):
 def _one_case(problem: DesignProblem, scene, adjoint):
     """One built scene: smooth and hard criteria, solver status and steps (scalars), with the
     level's solver and step-size control (``LEVEL_DEFAULTS``, ``LEVEL_STEP_CONTROL``)."""
-    from .simulate import simulate
+    from jaxcable.core.simulate import simulate
 
     pcoeff, icoeff = LEVEL_STEP_CONTROL[problem.fidelity]
     res = simulate(
@@ -941,8 +941,8 @@ def _one_two_phase_case(problem: DesignProblem, terminal, conditions, x, adjoint
     hooks'; smooth: their soft minimum, width ``margin_width_m``) and the *true* tracking error at
     capture, ``|frame centre - target of the true rocket state|`` at the event (continuous in the
     design: no noise sample and no save-grid index enters it), hard = smooth."""
-    from .arresting.two_phase import TwoPhaseCaseFunction, _event_occurred, two_phase_outputs
-    from .arresting.uncertainty import UNCERTAIN_PARAMETERS
+    from jaxcable.arresting.two_phase import TwoPhaseCaseFunction, _event_occurred, two_phase_outputs
+    from jaxcable.arresting.uncertainty import UNCERTAIN_PARAMETERS
 
     buffer = _buffer(problem, x)
     case_fn = TwoPhaseCaseFunction(
@@ -960,7 +960,7 @@ def _one_two_phase_case(problem: DesignProblem, terminal, conditions, x, adjoint
     land, track = out["passive"], out["tracking"]
     final = track.final_state
     x_true, _ = scene.rocket.head_and_bottom_world(final.rocket)
-    from .arresting.control import target_point
+    from jaxcable.arresting.control import target_point
 
     error = jnp.linalg.norm(scene.frame_centre(final) - target_point(x_true[0], x_true[1]))
     smooth = dict(smooth_landing_outputs(land.ts, land.probes, problem.widths))
@@ -1188,7 +1188,7 @@ class DesignHistory(eqx.Module):
     """the problem's record of each evaluation, shape (m, c), columns ``criteria_names``: for the
     buffer design the worst case over the batch of the hard criteria (z_max [m], a_max [g],
     sigma_max [MPa]; phase full adds the smallest capture margin [m] and the largest tracking
-    error [m]); for the line-throwing design its outputs (:mod:`jaxcable.line_design`)"""
+    error [m]); for the line-throwing design its outputs (:mod:`jaxcable.throw.design`)"""
     success_rate: np.ndarray
     """fraction of cases meeting every hard criterion (1 or 0 for a single-case problem), shape (m,)"""
     wall_s: np.ndarray
@@ -1583,7 +1583,7 @@ def design_main(argv: list[str] | None = None) -> int:
     parser.add_argument("--rope-length", type=float, default=1000.0, help="--scene throw: rope in the box [m] (default 1000)")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     args = parser.parse_args(argv)
-    from . import enable_x64
+    from jaxcable.core.config import enable_x64
 
     enable_x64()
     if args.scene == "throw":
@@ -1686,9 +1686,9 @@ def design_main(argv: list[str] | None = None) -> int:
 
 
 def _throw_design_main(args) -> int:
-    """``jaxcable design --scene throw``: adam on :mod:`jaxcable.line_design` from the flight-tested
+    """``jaxcable design --scene throw``: adam on :mod:`jaxcable.throw.design` from the flight-tested
     design (``--start paper``: 30 deg, the calibrated 10 mm rope)."""
-    from .line_design import THROW_VARIABLES, ThrowLimits, calibrated_start, optimise_throw, throw_problem, throw_report
+    from jaxcable.throw.design import THROW_VARIABLES, ThrowLimits, calibrated_start, optimise_throw, throw_problem, throw_report
 
     try:
         if args.steps < 0:

@@ -7,11 +7,11 @@ import platform
 
 import jax
 
+__version__ = "0.1.0"
+
 
 def machine_info() -> dict:
     """Machine, processor, core count, JAX version and backend, float64 flag, load average."""
-    from . import __version__
-
     cpu = platform.processor() or platform.machine()
     try:
         with open("/proc/cpuinfo") as f:

@@ -2,7 +2,7 @@
 box at the launch point; gravity, thrust, drag, pull-out force, ground.
 
 Build it with :func:`line_throwing_scene` (the calibrated defaults) and run it with
-:func:`jaxcable.simulate`. The scene's components are ``rocket`` (:class:`PointRocket`), ``rope``
+:func:`jaxcable.core.simulate`. The scene's components are ``rocket`` (:class:`PointRocket`), ``rope``
 (:class:`SegmentRope`), ``launch`` (:class:`Launch`) and ``forces`` (a tuple of force components);
 leave a force out to model less.
 
@@ -18,10 +18,10 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from .._validation import check_choice, check_positive, check_range
-from ..body.rocket import PointRocket, paper_rocket
-from ..forces import AeroDrag, Gravity, Ground, Thrust, make_pullout
-from ..line.segments import (
+from jaxcable.core.validation import check_choice, check_positive, check_range
+from jaxcable.throw.rocket import PointRocket, paper_rocket
+from jaxcable.throw.forces import AeroDrag, Gravity, Ground, Thrust, make_pullout
+from jaxcable.components.rope import (
     ChainState,
     SegmentRope,
     kinematics,
@@ -30,7 +30,7 @@ from ..line.segments import (
     make_rope,
     rope_vector_field,
 )
-from ..scene import AbstractScene
+from jaxcable.core.scene import AbstractScene
 
 # Fitted to the 30 deg flight test by experiments/calibrate_throw.py (see README "Calibration").
 CALIBRATION = {

@@ -8,7 +8,7 @@ Both models are a :class:`LandingRocket` (one interface, so a scene can swap the
 
 The four hooks are hinge children of the body that carries them (one revolute DOF each, eq 40), held
 by a rotational spring-damper (eq 39's ``f_sprdmp``), or, with ``hinged_hooks=False``, welded to that
-body (their mass and inertia added to it). The dynamics are :mod:`jaxcable.body.multibody`.
+body (their mass and inertia added to it). The dynamics are :mod:`jaxcable.components.multibody`.
 
 Frames and geometry
 -------------------
@@ -95,8 +95,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._validation import _concrete, check_finite, check_positive, check_range
-from .multibody import (
+from jaxcable.core.validation import _concrete, check_finite, check_positive, check_range
+from jaxcable.components.multibody import (
     MasslessBeams,
     MultibodyState,
     MultibodySystem,
@@ -440,7 +440,7 @@ class LandingRocket(eqx.Module):
                 default :attr:`hook_points_local_m` (P = 3: hinge, tip, barb end). World points convert
                 with :meth:`hook_world_to_local`.
             point_forces: further ``(body_index, local_points, world_forces)`` loads (see
-                :func:`jaxcable.body.multibody.generalized_forces`), e.g. aerodynamics.
+                :func:`jaxcable.components.multibody.generalized_forces`), e.g. aerodynamics.
             body_torques_world_N_m: (nb + nh, 3) torques about the bodies' CoMs [N m], or None.
             hinge_torques_N_m: (nh,) extra hinge torques (added to the spring-damper) [N m], or None.
         """
