@@ -214,6 +214,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxcable.core.validation import check_choice, check_finite, check_positive, check_range
+from jaxcable.core.validation import float_array as _float_array, concrete as _concrete
 from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.cable_sets import AleCables
 from jaxcable.arresting.landing import LEVEL_DEFAULTS, LEVEL_STEP_CONTROL
@@ -344,17 +345,8 @@ def _expand_profile_tokens(names):
     return out
 
 
-def _float_array(value):
-    return jnp.asarray(value, dtype=float)
 
 
-def _concrete(value):
-    if isinstance(value, jax.core.Tracer):
-        return None
-    try:
-        return np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        return None
 
 
 # ------------------------------------------------------------------------------------------------

@@ -96,6 +96,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxcable.core.validation import _concrete, check_finite, check_positive, check_range
+from jaxcable.core.validation import float_array as _float_array
 from jaxcable.components.multibody import (
     MasslessBeams,
     MultibodyState,
@@ -131,8 +132,6 @@ GRAVITY_M_S2 = (0.0, 0.0, -9.81)
 _HOOK_DIRECTIONS = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 
 
-def _float_array(x):
-    return jnp.asarray(x, dtype=float)
 
 
 class LandingRocketParams(eqx.Module):

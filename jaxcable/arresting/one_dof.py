@@ -147,6 +147,7 @@ import optimistix as optx
 from jaxtyping import Array
 
 from jaxcable.core.validation import check_positive
+from jaxcable.core.validation import float_array as _float_array, concrete_scalar as _concrete_float
 
 
 G_UNIT = 9.80
@@ -159,12 +160,6 @@ N_BUFFERS = 4
 """Buffer devices (counterweight + brake), one per arresting-cable subsystem."""
 
 
-def _float_array(value) -> Array:
-    """Fields are stored as floating, strongly typed JAX arrays, so ``filter_jit`` traces them
-    (no recompile for a new value, nor for a Python float vs an array) and ``grad``/``vmap``
-    reach them."""
-    value = jnp.asarray(value)
-    return value.astype(value.dtype if jnp.issubdtype(value.dtype, jnp.floating) else float)
 
 
 class OneDofParams(eqx.Module):
@@ -243,14 +238,6 @@ def _floats_to_arrays(fn):
     return wrapper
 
 
-def _concrete_float(value):
-    if isinstance(value, jax.core.Tracer):
-        return None  # traced: checked by the caller's concrete values, not here
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        return None
-    return float(arr) if arr.shape == () else None
 
 
 # --------------------------------------------------------------------------------------------

@@ -120,6 +120,7 @@ from jaxtyping import Array
 
 from jaxcable.core.math import cubic_step, safe_norm, safe_normalize
 from jaxcable.core.validation import check_finite, check_positive, check_range
+from jaxcable.core.validation import float_array as _float_array, concrete as _concrete_float
 
 __all__ = [
     "DEFAULT_EFFECTIVE_MASS",
@@ -170,19 +171,8 @@ _PARALLEL_SIN2 = 1e-12
 """Axes with ``sin^2(angle) <= _PARALLEL_SIN2`` are treated as parallel (midpoint of overlap)."""
 
 
-def _float_array(value) -> Array:
-    """Fields are floating JAX arrays, so ``vmap``/``grad`` reach them and ``jit`` traces them."""
-    value = jnp.asarray(value)
-    return value.astype(value.dtype if jnp.issubdtype(value.dtype, jnp.floating) else float)
 
 
-def _concrete_float(value):
-    if isinstance(value, jax.core.Tracer):
-        return None
-    try:
-        return np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        return None
 
 
 # ---------------------------------------------------------------------------------------------

@@ -95,6 +95,7 @@ from jax.scipy.linalg import cho_factor, cho_solve
 
 from jaxcable.core.math import safe_normalize
 from jaxcable.core.validation import _concrete, check_finite, check_positive
+from jaxcable.core.validation import float_array as _float_array
 
 __all__ = [
     "MasslessBeams",
@@ -221,8 +222,6 @@ def _matvec_t_points(A, p):
 # ---------------------------------------------------------------------------------------------
 
 
-def _float_array(x):
-    return jnp.asarray(x, dtype=float)
 
 
 def _check_inertia(name, value):

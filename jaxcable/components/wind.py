@@ -140,6 +140,7 @@ import numpy as np
 
 from jaxcable.core.math import safe_norm, safe_normalize
 from jaxcable.core.validation import _concrete, check_finite, check_positive, check_range
+from jaxcable.core.validation import float_array as _float_array
 
 __all__ = [
     "AIR_DENSITY_KG_M3",
@@ -164,8 +165,6 @@ _DEFAULT_LENGTH_SCALE_M = 8.1 * _IEC_LAMBDA_M
 _DEFAULT_LATERAL_LENGTH_SCALE_M = 2.7 * _IEC_LAMBDA_M
 
 
-def _float_array(x):
-    return jnp.asarray(x, dtype=float)
 
 
 # ---------------------------------------------------------------------------------------------
