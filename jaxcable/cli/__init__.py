@@ -18,8 +18,8 @@ import sys
 def _throw(args) -> int:
     import numpy as np
 
-    from jaxcable.cli import enable_x64, simulate
-    from jaxcable.cli.scenes.line_throwing import line_throwing_scene, report
+    from jaxcable.core import enable_x64, simulate
+    from jaxcable.throw.scene import line_throwing_scene, report
 
     enable_x64()
     try:
@@ -39,7 +39,7 @@ def _throw(args) -> int:
     out["segment_length_m"] = args.segment_length
     out["num_steps"] = int(result.num_steps)
     if args.plot:
-        from jaxcable.cli.plotting import plot_flight
+        from jaxcable.throw.plotting import plot_flight
 
         plot_flight(result, args.plot, title=f"line-throwing rocket, {args.angle:g} deg")
         out["plot"] = args.plot
@@ -71,7 +71,7 @@ _DESIGN = dict(x=0.0, y=0.0, vx=0.0, vy=0.0, vz=-20.0, theta_x=0.0, theta_y=0.0,
 def _buffer_from_args(args):
     """The buffer devices of ``jaxcable land``: m_w, F_f and the optional brake profile (ValueError
     naming the flag on bad input)."""
-    from jaxcable.cli.arresting.buffer import BufferDevice
+    from jaxcable.arresting.buffer import BufferDevice
 
     profile = None
     if args.brake_profile:
@@ -94,8 +94,8 @@ def _land(args) -> int:
             setattr(args, k, v)
     if args.phase == "full":
         return _land_two_phase(args)
-    from jaxcable.cli.arresting.landing import plot_landing, report_landing, run_landing
-    from jaxcable.cli.arresting.layout import CaptureState
+    from jaxcable.arresting.landing import plot_landing, report_landing, run_landing
+    from jaxcable.arresting.layout import CaptureState
 
     try:
         capture = CaptureState(
@@ -153,8 +153,8 @@ def _land(args) -> int:
 
 
 def _land_two_phase(args) -> int:
-    from jaxcable.cli.arresting.layout import CaptureState
-    from jaxcable.cli.arresting.two_phase import plot_two_phase, report_two_phase, run_two_phase
+    from jaxcable.arresting.layout import CaptureState
+    from jaxcable.arresting.two_phase import plot_two_phase, report_two_phase, run_two_phase
 
     if args.fidelity == "1dof":
         print("jaxcable land: error: --phase full needs --fidelity rigid, ale or full", file=sys.stderr)
@@ -216,19 +216,19 @@ def _land_two_phase(args) -> int:
 
 
 def _sweep(args) -> int:
-    from jaxcable.cli.sweep import sweep_main
+    from jaxcable.studies.sweep import sweep_main
 
     return sweep_main(args.rest)
 
 
 def _design(args) -> int:
-    from jaxcable.cli.design import design_main
+    from jaxcable.arresting.design import design_main
 
     return design_main(args.rest)
 
 
 def _bench(args) -> int:
-    from jaxcable.cli.bench import bench_main
+    from jaxcable.studies.bench import bench_main
 
     return bench_main(args.rest)
 
@@ -251,8 +251,8 @@ def _positive(name):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from jaxcable.cli.arresting.passive import DEFAULT_CABLE_DAMPING_S
-    from jaxcable.cli.simulate import SOLVERS
+    from jaxcable.arresting.passive import DEFAULT_CABLE_DAMPING_S
+    from jaxcable.core.simulate import SOLVERS
 
     parser = argparse.ArgumentParser(prog="jaxcable", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -335,15 +335,15 @@ def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     # sweep/design/bench parse their own flags (argparse's REMAINDER does not take a rest starting with "--")
     if argv[:1] == ["sweep"]:
-        from jaxcable.cli.sweep import sweep_main
+        from jaxcable.studies.sweep import sweep_main
 
         return sweep_main(argv[1:])
     if argv[:1] == ["design"]:
-        from jaxcable.cli.design import design_main
+        from jaxcable.arresting.design import design_main
 
         return design_main(argv[1:])
     if argv[:1] == ["bench"]:
-        from jaxcable.cli.bench import bench_main
+        from jaxcable.studies.bench import bench_main
 
         return bench_main(argv[1:])
     args = build_parser().parse_args(argv)
