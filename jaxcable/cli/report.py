@@ -1,0 +1,33 @@
+"""The one report printer of the command line: every command returns a :class:`Report`, printed as
+one JSON object (``--json``) or as text; bad input is a ``ValueError`` naming the flag or field,
+printed as ``jaxcable COMMAND: error: MESSAGE`` with exit status 2."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import sys
+
+
+@dataclasses.dataclass
+class Report:
+    """What a command produced: ``data`` (JSON-able dict, printed by ``--json``), ``text`` (the human
+    report), ``ok`` (exit status 0 when True, 1 otherwise)."""
+
+    data: dict
+    text: str
+    ok: bool = True
+
+
+def emit(command: str, run, args) -> int:
+    """Run ``run(args) -> Report`` and print it; returns the exit status."""
+    try:
+        report = run(args)
+    except ValueError as err:
+        print(f"jaxcable {command}: error: {err}", file=sys.stderr)
+        return 2
+    if getattr(args, "json", False):
+        print(json.dumps(report.data))
+    elif report.text:
+        print(report.text)
+    return 0 if report.ok else 1
