@@ -9,7 +9,7 @@ package, the factories the studies and the command line look up by name:
   --scene NAME`` optimises;
 * benchmark cases (``register_bench_case("throw", case)``): what ``jaxcable bench`` times.
 
-``jaxcable.systems()`` imports both systems, so every name is registered.
+Importing :mod:`jaxcable` imports both systems, so every name is registered.
 """
 
 from __future__ import annotations
