@@ -418,13 +418,14 @@ class NoShardMapDecay(DecayCase):
 _PER_DEVICE_SCRIPT = textwrap.dedent(
     """
     import json, sys
+    import jaxcable.studies.sharding as sharding
     import jaxcable.studies.sweep as sweep
     from test_sweep import NoShardMapDecay, decay_samples
-    seen, on_mesh = [], sweep._on_mesh
+    seen, on_mesh = [], sharding.on_mesh
     def spy(case_fn, part, mesh, method):
         seen.append(sorted(d.id for d in mesh.devices.flat))
         return on_mesh(case_fn, part, mesh, method)
-    sweep._on_mesh = spy
+    sharding.on_mesh = spy
     sweep.run_sweep(NoShardMapDecay(), decay_samples(12), sys.argv[1], batch_size=8, progress=False)
     print(json.dumps(seen))
     """

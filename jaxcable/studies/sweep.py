@@ -60,6 +60,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxcable.core.validation import check_choice, check_positive
+from jaxcable.studies.sharding import device_mesh, evaluate, round_up, stack_cases
 from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.layout import ArrestingLayout, CaptureState
 from jaxcable.arresting.passive import DEFAULT_CABLE_DAMPING_S, G_CRITERIA, SAVE_SPACING_S, LandingCriteria
@@ -111,7 +112,6 @@ ALLOWED_NONFINITE = {"stop_time_s": "stopped"}
 (a case that did not stop within ``t_end_s`` has no stop time)."""
 
 _OK_STATUS = tuple(int(r._value) for r in (diffrax.RESULTS.successful, diffrax.RESULTS.event_occurred))
-_AXIS = "cases"
 
 
 # ------------------------------------------------------------------------------------------------
@@ -416,99 +416,7 @@ def case_fn_for(phase: str, fidelity: str = "rigid", **kwargs) -> AbstractCaseFu
     return _CASE_FACTORIES[phase](fidelity, **kwargs)
 
 
-# ------------------------------------------------------------------------------------------------
-# Batched, sharded evaluation
-# ------------------------------------------------------------------------------------------------
-
-
-def _mesh(devices=None):
-    devices = jax.local_devices() if devices is None else list(devices)
-    return jax.sharding.Mesh(np.asarray(devices), (_AXIS,))
-
-
-def _sharded_impl(case_fn, batch, mesh, method):
-    # shard_map (not a plain sharded vmap): each device runs its own vmapped while-loop, so a
-    # device stops when its own cases finish, with no cross-device reduction per step.
-    # check_vma=False: diffrax's while-loop carries mix device-varying values (the cases) with
-    # replicated ones (constants), which the varying-axes type check rejects; the body has no
-    # collectives, so there is nothing for the check to protect.
-    P = jax.sharding.PartitionSpec
-    if mesh.devices.size == 1:
-        return jax.vmap(getattr(case_fn, method))(batch)
-    fn_dynamic, fn_static = eqx.partition(case_fn, eqx.is_array)
-    batch_dynamic, batch_static = eqx.partition(batch, eqx.is_array)
-
-    def local(fn_dynamic, batch_dynamic):
-        fn = eqx.combine(fn_dynamic, fn_static)
-        return jax.vmap(getattr(fn, method))(eqx.combine(batch_dynamic, batch_static))
-
-    return jax.shard_map(local, mesh=mesh, in_specs=(P(), P(_AXIS)), out_specs=P(_AXIS), check_vma=False)(
-        fn_dynamic, batch_dynamic
-    )
-
-
-# One compiled function per (case function structure, mesh, method, chunk shape): module level so
-# that repeated sweeps (tests, extensions, resumes in one process) reuse the compiled code.
-_sharded = eqx.filter_jit(_sharded_impl)
-
-
-def _stack_cases(cases: list):
-    """Stack single-case PyTrees along a new leading axis; their non-array parts must agree."""
-    statics = [eqx.partition(c, eqx.is_array)[1] for c in cases]
-    if any(s != statics[0] for s in statics[1:]):
-        raise ValueError("the cases of a chunk were built with different static structures; cannot batch them")
-    return jax.tree_util.tree_map(lambda *xs: np.stack([np.asarray(x) for x in xs]) if eqx.is_array(xs[0]) else xs[0], *cases)
-
-
-def _evaluate(case_fn, params: dict, mesh, size: int, method="__call__") -> dict:
-    """Run ``case_fn`` on the cases of ``params`` (arrays (k,), k <= size) padded to ``size`` (a
-    multiple of the mesh size) by repeating the first case; returns numpy arrays (k,)."""
-    k = len(next(iter(params.values())))
-    pad = size - k
-    padded = {name: np.concatenate([v, np.repeat(v[:1], pad)]) if pad else v for name, v in params.items()}
-    if case_fn.host_build:
-        batch = _stack_cases([case_fn.build({n: v[j] for n, v in padded.items()}) for j in range(size)])
-        method = {"__call__": "solve", "histories": "solve_histories"}[method]
-    else:
-        batch = padded
-    if mesh.devices.size > 1 and not case_fn.per_device_loops:
-        out = _per_device(case_fn, batch, list(mesh.devices.flat), method)
-    else:
-        out = _on_mesh(case_fn, batch, mesh, method)
-    return {name: np.asarray(v)[:k] for name, v in out.items()}
-
-
-def _on_mesh(case_fn, batch, mesh, method) -> dict:
-    """The batch placed along the mesh's case axis and run (:func:`_sharded_impl`)."""
-    sharding = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec(_AXIS))
-    batch = jax.tree_util.tree_map(lambda x: jax.device_put(x, sharding) if eqx.is_array(x) else x, batch)
-    return _sharded(case_fn, batch, mesh, method)
-
-
-def _per_device(case_fn, batch, devices, method) -> dict:
-    """One vmapped call per device on its equal slice of the batch, each from its own thread, so
-    each device steps its own cases in its own ``while`` loop, concurrently. For case functions that
-    cannot run under ``shard_map`` (``per_device_loops`` False): one call over the batch sharded
-    across the devices makes XLA partition the loop, whose step-size control then waits for every
-    device at every step (measured slower than one device). Threads, not asynchronous dispatch: a
-    call of these solves returns only when it has finished (measured: two calls dispatched in turn
-    took the sum of their times, from two threads the time of one). One compilation per device."""
-    from concurrent.futures import ThreadPoolExecutor
-
-    size = len(jax.tree_util.tree_leaves(eqx.filter(batch, eqx.is_array))[0])
-    per = size // len(devices)
-
-    def run(d):
-        part = jax.tree_util.tree_map(lambda x: x[d * per : (d + 1) * per] if eqx.is_array(x) else x, batch)
-        return {name: np.asarray(v) for name, v in _on_mesh(case_fn, part, _mesh([devices[d]]), method).items()}
-
-    with ThreadPoolExecutor(len(devices)) as pool:
-        outs = list(pool.map(run, range(len(devices))))
-    return {name: np.concatenate([o[name] for o in outs]) for name in outs[0]}
-
-
-def _round_up(a, b):
-    return -(-a // b) * b
+_stack_cases = stack_cases  # the name arresting/design.py imports
 
 
 # ------------------------------------------------------------------------------------------------
@@ -675,7 +583,7 @@ def run_sweep(
     indices = np.arange(n) if indices is None else np.asarray(indices, dtype=int)
     if indices.size and (indices.min() < 0 or indices.max() >= n):
         raise ValueError(f"indices must be in [0, {n}), got {indices.min()}..{indices.max()}")
-    mesh = _mesh(devices)
+    mesh = device_mesh(devices)
     n_dev = mesh.devices.size
     out_csv = Path(out_csv)
     side = _sidecar_path(out_csv)
@@ -691,11 +599,11 @@ def run_sweep(
         out_csv.write_text("")
     todo = np.array([i for i in indices if int(i) not in done], dtype=int)
     # one chunk shape per sweep (one compilation): the last chunk is padded up to it
-    size = _round_up(min(batch_size, max(len(todo), 1)), n_dev)
+    size = round_up(min(batch_size, max(len(todo), 1)), n_dev)
     bar = _progress_bar(len(indices), len(indices) - len(todo), progress)
     for start in range(0, len(todo), size):
         idx = todo[start : start + size]
-        outputs = _evaluate(case_fn, {k: arrays[k][idx] for k in names}, mesh, size)
+        outputs = evaluate(case_fn, {k: arrays[k][idx] for k in names}, mesh, size)
         if "status_code" not in outputs:
             raise ValueError("a case function must return 'status_code' (the solver's result code)")
         out_keys = _ordered(outputs)
@@ -864,10 +772,10 @@ def run_histories(case_fn: AbstractCaseFunction, samples: dict, indices, *, devi
 
     enable_x64()
     indices = np.asarray(indices, dtype=int)
-    mesh = _mesh(devices)
+    mesh = device_mesh(devices)
     params = {k: np.asarray(v, dtype=float)[indices] for k, v in samples.items()}
-    size = _round_up(max(len(indices), 1), mesh.devices.size)
-    return _evaluate(case_fn, params, mesh, size, method="histories")
+    size = round_up(max(len(indices), 1), mesh.devices.size)
+    return evaluate(case_fn, params, mesh, size, method="histories")
 
 
 # ------------------------------------------------------------------------------------------------
