@@ -1,13 +1,21 @@
-"""Shared plumbing of the experiment scripts' reports (imported by the scripts beside it; a
-script run as ``python experiments/NAME.py`` has this folder on its import path).
+"""The experiment scripts' report helper: where results go and what every report states.
 
-A report is a dict ``data`` started by :func:`start` (machine, load average, date, the command),
-filled by the script, and finished by :func:`finish`, which adds the load at the end and the wall
-time and writes ``STEM.json`` and the script's markdown ``STEM.md`` into the output folder."""
+Every script in this folder writes its results into ``experiments/results/`` (``--out`` elsewhere;
+quick runs into the git-ignored ``experiments/out/``) through these functions, so that each results
+file names the machine, the JAX version and backend, the float precision, the load average, the date
+and the command that produced it. A script run as ``python experiments/NAME.py`` has this folder on
+its import path; the scripts in ``experiments/peers/`` add it.
+
+A report is a dict started by :func:`start` (machine, load, date, command), filled by the script,
+saved as it goes with :func:`save` (JSON, so a killed run keeps what it has) and closed by
+:func:`finish`, which adds the load at the end and the wall time and writes ``STEM.json`` and the
+script's markdown ``STEM.md``. :func:`header` gives the markdown lines that state the provenance;
+:func:`machine_line` the one line about the machine, JAX and the precision."""
 
 from __future__ import annotations
 
 import json
+import os
 import sys
 import time
 from pathlib import Path
@@ -15,36 +23,120 @@ from pathlib import Path
 from jaxcable.core.provenance import machine_info
 
 ROOT = Path(__file__).resolve().parent.parent
+RESULTS = ROOT / "experiments" / "results"
+SCRATCH = ROOT / "experiments" / "out"
 
 
-def output_dir(out: str | None) -> Path:
-    """``--out`` or ``experiments/results``, created."""
-    path = Path(out) if out else ROOT / "experiments" / "results"
+def output_dir(out: str | Path | None = None, quick: bool = False, sub: str | None = None) -> Path:
+    """``out`` if given, else ``experiments/out/[sub]`` for a quick run, else ``experiments/results``;
+    created."""
+    if out:
+        path = Path(out)
+    elif quick:
+        path = SCRATCH / sub if sub else SCRATCH
+    else:
+        path = RESULTS
     path.mkdir(parents=True, exist_ok=True)
     return path
+
+
+def machine() -> dict:
+    """Machine, processor, cores, JAX version and backend, float64 flag, load average now."""
+    return machine_info()
+
+
+def load_average() -> list:
+    """The load average (1, 5, 15 min) now, rounded."""
+    return [round(x, 2) for x in os.getloadavg()]
+
+
+def now() -> str:
+    """The date and time now, ``YYYY-mm-dd HH:MM:SS``."""
+    return time.strftime("%Y-%m-%d %H:%M:%S")
+
+
+def command() -> str:
+    """The command line that runs this script, as a user would type it from the repository root."""
+    script = Path(sys.argv[0]).resolve()
+    try:
+        script = script.relative_to(ROOT)
+    except ValueError:
+        pass
+    return " ".join(["python", str(script), *sys.argv[1:]])
+
+
+def precision() -> str:
+    """``"float64"`` when JAX's x64 mode is on, else ``"float32"``."""
+    import jax
+
+    return "float64" if jax.config.jax_enable_x64 else "float32"
 
 
 def start(**fields) -> dict:
     """A new report: machine, load average now, date, the command that ran, and ``fields``; the
     wall clock starts here."""
-    info = machine_info()
-    script = Path(sys.argv[0]).name
+    info = machine()
     return dict(
-        machine=info, load_start=info["load_average_1_5_15_min"], date=time.strftime("%Y-%m-%d %H:%M:%S"),
-        command=" ".join(["python", f"experiments/{script}", *sys.argv[1:]]), _t0=time.perf_counter(), **fields,
+        machine=info, load_start=info["load_average_1_5_15_min"], date=now(), command=command(),
+        _t0=time.perf_counter(), **fields,
     )  # fmt: skip
 
 
+def machine_line(m: dict) -> str:
+    """One markdown line: processor, cores, JAX version and backend, the float precision."""
+    cpu = f"{m.get('processor', '?')} ({m.get('machine', '?')}, {m.get('cpu_count', '?')} logical CPUs)"
+    prec = "float64" if m.get("float64") else "float32"
+    return (
+        f"Machine: {cpu}. JAX {m.get('jax', '?')} on {m.get('jax_backend', '?')}, {prec} "
+        f"(float64 = {m.get('float64')}), jaxcable {m.get('jaxcable', '?')}."
+    )
+
+
 def header(data: dict) -> list:
-    """The markdown lines naming the machine, JAX, the precision, the load, the date, the wall time
-    and the command of a finished report."""
+    """The markdown lines stating where a report came from: the machine line, the load average at
+    the start and (once finished) at the end, the date, the wall time and the command."""
     m = data["machine"]
-    return [
-        f"Machine: {m['processor']} ({m['machine']}, {m['cpu_count']} logical CPUs). JAX {m['jax']} on "
-        f"{m['jax_backend']}, float64 = {m['float64']}, jaxcable {m['jaxcable']}.  ",
-        f"Load average at the start {data['load_start']}, at the end {data['load_end']}. Run {data['date']}, "
-        f"{data['wall_s']:.0f} s. Generated by `{data['command']}`.",
-    ]
+    load = f"Load average (1/5/15 min) at the start {data.get('load_start', m.get('load_average_1_5_15_min'))}"
+    if data.get("load_end") is not None:
+        load += f", at the end {data['load_end']}"
+    run = f"Run {data['date']}" if data.get("date") else "Run"
+    if data.get("wall_s") is not None:
+        run += f", {data['wall_s']:.0f} s"
+    cmd = f" Generated by `{data['command']}`." if data.get("command") else ""
+    return [machine_line(m) + "  ", f"{load} (wall-clock times on a shared machine). {run}.{cmd}"]
+
+
+def write_json(path: Path, data) -> Path:
+    """Write ``data`` as indented JSON (numbers that JSON lacks as floats; keys starting with ``_``
+    left out at the top level)."""
+    if isinstance(data, dict):
+        data = {k: v for k, v in data.items() if not str(k).startswith("_")}
+    Path(path).write_text(json.dumps(data, indent=1, default=float))
+    return Path(path)
+
+
+def write_lines(path: Path, lines) -> Path:
+    """Write markdown ``lines`` (one string each) with a final newline."""
+    Path(path).write_text("\n".join(lines) + "\n")
+    return Path(path)
+
+
+def save(data: dict, out: Path, stem: str) -> Path:
+    """Write the report so far as ``stem``.json (call after each case: a killed run keeps them)."""
+    return write_json(Path(out) / f"{stem}.json", data)
+
+
+def finish(data: dict, out: Path, stem: str, write_md=None) -> None:
+    """Add the end load and the wall time, write ``stem``.json and ``write_md(data, stem.md)``."""
+    data["load_end"] = load_average()
+    if "_t0" in data:
+        data["wall_s"] = time.perf_counter() - data.pop("_t0")
+    save(data, out, stem)
+    written = [Path(out) / f"{stem}.json"]
+    if write_md is not None:
+        write_md(data, Path(out) / f"{stem}.md")
+        written.append(Path(out) / f"{stem}.md")
+    print("wrote", ", ".join(str(p) for p in written))
 
 
 def time_rounds(calls: dict, repeats: int):
@@ -66,12 +158,3 @@ def time_rounds(calls: dict, repeats: int):
             jax.block_until_ready(fn())
             best[k] = min(best[k], time.perf_counter() - t)
     return outs, first, best
-
-
-def finish(data: dict, out: Path, stem: str, write_md) -> None:
-    """Add the end load and the wall time, write ``stem``.json and ``write_md(data, stem.md)``."""
-    data["load_end"] = machine_info()["load_average_1_5_15_min"]
-    data["wall_s"] = time.perf_counter() - data.pop("_t0")
-    (out / f"{stem}.json").write_text(json.dumps(data, indent=1, default=float))
-    write_md(data, out / f"{stem}.md")
-    print(f"wrote {out / f'{stem}.json'}, {out / f'{stem}.md'}")

@@ -30,9 +30,9 @@ import numpy as np
 
 import jaxcable
 from jaxcable.arresting.control import (
+    RocketPath,
     TrackingController,
     delayed_loop_reference,
-    figure4_rocket,
     measurement_noise_track,
     run_tracking_loop,
 )
@@ -45,6 +45,14 @@ TOL = 1e-10
 T_C_HALF = 5.0  # t_c / 2 of the Fig 4 case
 PADE_ORDERS = (1, 2, 3, 4, 5)
 LAG_COUNTS = (1, 2, 4, 8, 16)
+
+
+def figure4_rocket(target_m: float = TARGET) -> RocketPath:
+    """Fig 4's constant target: a still, vertical rocket whose bottom is 20 m above the plane at
+    x = y = ``target_m`` [m] (its length does not matter while the bottom is above the plane)."""
+    return RocketPath(
+        head_m=jnp.array([target_m, target_m, 60.0]), bottom_m=jnp.array([target_m, target_m, 20.0])
+    )
 
 
 def parse_args():

@@ -39,8 +39,6 @@ from jaxcable.arresting.one_dof import (
     buffer_from_groups,
     design_groups,
     energy_bar,
-    fig6,
-    fig6_curves,
     friction_group_for_stop,
     m_t_bar_bounds,
     paper_design,
@@ -49,10 +47,13 @@ from jaxcable.arresting.one_dof import (
     speed_sq_bar,
     stop_distance_bar,
     stroke_peaks,
-    table1_design,
     tension_bar,
     v0_bar,
 )
+
+from jaxcable.arresting import design  # noqa: F401  (registers the "arresting" design problem)
+from jaxcable.arresting import sweep, two_phase  # noqa: F401  (register the sweeps' case functions)
+from jaxcable.arresting import bench_cases  # noqa: F401  (registers the bench cases)
 
 __all__ = [
     "FIDELITY_LEVELS",
@@ -91,8 +92,6 @@ __all__ = [
     "buffer_from_groups",
     "design_groups",
     "energy_bar",
-    "fig6",
-    "fig6_curves",
     "friction_group_for_stop",
     "m_t_bar_bounds",
     "paper_design",
@@ -101,7 +100,6 @@ __all__ = [
     "speed_sq_bar",
     "stop_distance_bar",
     "stroke_peaks",
-    "table1_design",
     "tension_bar",
     "v0_bar",
 ]

@@ -139,7 +139,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxcable.core.validation import check_choice, check_finite, check_positive
+from jaxcable.core.validation import as_array, check_choice, check_fields, check_finite, check_positive, check_range, positive
 
 __all__ = [
     "FILTER_DELAYS",
@@ -154,7 +154,6 @@ __all__ = [
     "TrackingRun",
     "delayed_loop_reference",
     "delayed_measurement",
-    "figure4_rocket",
     "filter_noise_samples",
     "filtered_measurement",
     "kappa",
@@ -206,9 +205,9 @@ class NoiseTrack(eqx.Module):
     adaptive ODE solver. Before t = 0 it holds the first value, after the last sample the last one.
     """
 
-    sample_period_s: jax.Array = eqx.field(converter=jnp.asarray)
+    sample_period_s: jax.Array = eqx.field(converter=as_array)
     """Delta t: sampling period [s], scalar."""
-    values_m: jax.Array = eqx.field(converter=jnp.asarray)
+    values_m: jax.Array = eqx.field(converter=as_array)
     """Filtered noise at t_k = k Delta t: (n, 2, 3) [m] (head, bottom; x, y, z), n >= 2."""
 
     def __check_init__(self):
@@ -243,6 +242,10 @@ def measurement_noise_track(key, controller: "TrackingController", t_end_s: floa
     if isinstance(dt, jax.core.Tracer):
         raise ValueError("sample_period_s must be concrete to size the noise track")
     n = int(math.ceil(float(t_end_s) / float(dt))) + 2
+    if n > 10**7:
+        raise ValueError(
+            f"t_end_s must give at most 1e7 noise samples at sample_period_s = {float(dt):g} s, got t_end_s = {t_end_s!r}"
+        )
     raw = measurement_noise(key, n + 3, controller.noise_rms_m)
     return NoiseTrack(sample_period_s=dt, values_m=filter_noise_samples(raw))
 
@@ -404,7 +407,7 @@ class AbstractDelay(eqx.Module):
 class PadeDelay(AbstractDelay):
     """[n/n] Pade approximant of e^{-tau s} (all-pass), balanced state-space realisation."""
 
-    delay_s: jax.Array = eqx.field(converter=jnp.asarray, default=0.1)
+    delay_s: jax.Array = eqx.field(converter=as_array, default=0.1)
     """tau: dead time [s], scalar, >= 0."""
     order: int = eqx.field(static=True, default=2)
     """Pade order n (1..8): n states per channel."""
@@ -425,7 +428,7 @@ class PadeDelay(AbstractDelay):
 class LagChainDelay(AbstractDelay):
     """A chain of n first-order lags of tau / n each: ``1 / (1 + tau s / n)^n``."""
 
-    delay_s: jax.Array = eqx.field(converter=jnp.asarray, default=0.1)
+    delay_s: jax.Array = eqx.field(converter=as_array, default=0.1)
     """tau: dead time [s], scalar, >= 0."""
     n_lags: int = eqx.field(static=True, default=4)
     """Number of lags n (>= 1): n states per channel."""
@@ -462,6 +465,20 @@ class ControllerState(eqx.Module):
     """d = d_p: slider displacement from its home position = reeled-out length, (4,) [m]."""
 
 
+_CONTROLLER_BOUNDS = {
+    "gain_per_s": positive(high=100.0, unit=" 1/s", why="Table 4: 2-6 1/s"),
+    "derivative_gain": positive(allow_zero=True, high=100.0, why="the paper's PD law: 1"),
+    "tracking_time_s": positive(high=600.0, unit=" s", why="Table 4: 5-10 s"),
+    "motor_delay_s": positive(allow_zero=True, high=10.0, unit=" s", why="Table 2: up to 0.1 s"),
+    "motor_bandwidth_per_s": positive(high=1e4, unit=" 1/s", why="eq 8: 1 1/s"),
+    "sample_period_s": lambda name, v: (
+        check_positive(name, v), check_range(name, v, 1e-4, 1.0, inclusive=True, unit=" s", why="default 0.02 s")
+    ),
+    "noise_rms_m": positive(allow_zero=True, high=10.0, unit=" m", why="Table 2: up to 0.1 m"),
+}
+"""The bound of each :class:`TrackingController` array field (reasons in :meth:`TrackingController.check_arguments`)."""
+
+
 class TrackingController(eqx.Module):
     """PD tracking law with the saturation ramp, motor lag and dead time (eqs 4-8, 46).
 
@@ -471,19 +488,19 @@ class TrackingController(eqx.Module):
     tracking.
     """
 
-    gain_per_s: jax.Array = eqx.field(converter=jnp.asarray, default=2.0)
+    gain_per_s: jax.Array = eqx.field(converter=as_array, default=2.0)
     """a_p: proportional gain [1/s], > 0 (eq 11: a_p >= 20 / t_c for e^-5 at t_c / 2)."""
-    derivative_gain: jax.Array = eqx.field(converter=jnp.asarray, default=1.0)
+    derivative_gain: jax.Array = eqx.field(converter=as_array, default=1.0)
     """g_d: gain of e' in eq 4 [-], >= 0 (1: the paper's PD law; 0: P law)."""
-    tracking_time_s: jax.Array = eqx.field(converter=jnp.asarray, default=10.0)
+    tracking_time_s: jax.Array = eqx.field(converter=as_array, default=10.0)
     """t_c: duration of the tracking/capturing phase [s], > 0 (the ramp ends at t_c / 2)."""
-    motor_delay_s: jax.Array = eqx.field(converter=jnp.asarray, default=0.1)
+    motor_delay_s: jax.Array = eqx.field(converter=as_array, default=0.1)
     """tau: motor dead time [s], >= 0."""
-    motor_bandwidth_per_s: jax.Array = eqx.field(converter=jnp.asarray, default=1.0)
+    motor_bandwidth_per_s: jax.Array = eqx.field(converter=as_array, default=1.0)
     """b: bandwidth of the motor's position loop [1/s], > 0 (eq 8: 1)."""
-    sample_period_s: jax.Array = eqx.field(converter=jnp.asarray, default=0.02)
+    sample_period_s: jax.Array = eqx.field(converter=as_array, default=0.02)
     """Delta t: sampling period [s], > 0 (not in the paper; 50 Hz, see the module docstring)."""
-    noise_rms_m: jax.Array = eqx.field(converter=jnp.asarray, default=0.1)
+    noise_rms_m: jax.Array = eqx.field(converter=as_array, default=0.1)
     """sigma_r: RMS of each component of the measurement noise [m], >= 0."""
     delay_order: int = eqx.field(static=True, default=2)
     """Order of the dead-time approximant (Pade order or number of lags). Default 2: on the Fig 4
@@ -499,13 +516,7 @@ class TrackingController(eqx.Module):
     """Motor as a position servo of bandwidth b (eq 7); ``False``: d_p' = v_smooth(t - tau)."""
 
     def __check_init__(self):
-        check_positive("gain_per_s", self.gain_per_s)
-        check_positive("derivative_gain", self.derivative_gain, allow_zero=True)
-        check_positive("tracking_time_s", self.tracking_time_s)
-        check_positive("motor_delay_s", self.motor_delay_s, allow_zero=True)
-        check_positive("motor_bandwidth_per_s", self.motor_bandwidth_per_s)
-        check_positive("sample_period_s", self.sample_period_s)
-        check_positive("noise_rms_m", self.noise_rms_m, allow_zero=True)
+        TrackingController.check_arguments(**{name: getattr(self, name) for name in _CONTROLLER_BOUNDS})
         check_choice("delay_model", self.delay_model, DELAY_MODELS)
         max_order = 8 if self.delay_model == "pade" else 10_000
         order = self.delay_order
@@ -521,6 +532,28 @@ class TrackingController(eqx.Module):
                     f"lag is improper), got {self.derivative_gain!r}"
                 )
         _ = self.delay  # builds (and so validates) the dead-time approximant
+
+    @staticmethod
+    def check_arguments(**values):
+        """Check some fields' values by the class's bounds (:data:`_CONTROLLER_BOUNDS`) before
+        building one, e.g. a scene builder's arguments: ``gain_per_s`` in ``(0, 100]`` 1/s (Table 4:
+        2-6; the design bounds 0.5-10), ``derivative_gain`` in ``[0, 100]``, ``tracking_time_s`` in
+        ``(0, 600]`` s (Table 4: 5-10 s), ``motor_delay_s`` in ``[0, 10]`` s (Table 2: up to 0.1 s) and
+        below ``tracking_time_s`` (a motor that acts only after the capture tracks nothing),
+        ``motor_bandwidth_per_s`` in ``(0, 1e4]`` 1/s (eq 8: 1), ``sample_period_s`` in
+        ``[1e-4, 1]`` s (50 Hz default) and ``noise_rms_m`` in ``[0, 10]`` m (Table 2: up to 0.1 m;
+        10 m is 3x the capture frame's half-width, a measurement of nothing)."""
+        for name in values:
+            if name not in _CONTROLLER_BOUNDS:
+                raise ValueError(f"unknown TrackingController field {name!r}; choose one of {sorted(_CONTROLLER_BOUNDS)}")
+        check_fields(values, _CONTROLLER_BOUNDS)
+        delay, t_c = values.get("motor_delay_s"), values.get("tracking_time_s")
+        if delay is not None and t_c is not None and not any(isinstance(v, jax.core.Tracer) for v in (delay, t_c)):
+            if np.any(np.asarray(delay, float) >= np.asarray(t_c, float)):
+                raise ValueError(
+                    f"motor_delay_s must be below tracking_time_s = {t_c!r} s (the motor would act only "
+                    f"after the capture), got {delay!r}"
+                )
 
     @property
     def delay(self) -> AbstractDelay:
@@ -609,13 +642,13 @@ class RocketPath(eqx.Module):
 
     Velocity and acceleration default to zero: a rocket hanging still (Fig 4's constant target)."""
 
-    head_m: jax.Array = eqx.field(converter=jnp.asarray)
+    head_m: jax.Array = eqx.field(converter=as_array)
     """Head position at t = 0, (3,) [m] (z up, top plane z = 0)."""
-    bottom_m: jax.Array = eqx.field(converter=jnp.asarray)
+    bottom_m: jax.Array = eqx.field(converter=as_array)
     """Bottom position at t = 0, (3,) [m]."""
-    velocity_m_s: jax.Array = eqx.field(converter=jnp.asarray, default=(0.0, 0.0, 0.0))
+    velocity_m_s: jax.Array = eqx.field(converter=as_array, default=(0.0, 0.0, 0.0))
     """Velocity at t = 0, (3,) [m/s]."""
-    acceleration_m_s2: jax.Array = eqx.field(converter=jnp.asarray, default=(0.0, 0.0, 0.0))
+    acceleration_m_s2: jax.Array = eqx.field(converter=as_array, default=(0.0, 0.0, 0.0))
     """Constant acceleration, (3,) [m/s^2]."""
 
     def __check_init__(self):
@@ -634,14 +667,6 @@ class RocketPath(eqx.Module):
         """(2, 3) [m/s]."""
         v = self.velocity_m_s + self.acceleration_m_s2 * t
         return jnp.stack([v, v])
-
-
-def figure4_rocket(target_m: float = 17.0) -> RocketPath:
-    """Fig 4's constant target: a still, vertical rocket whose bottom is 20 m above the plane at
-    x = y = ``target_m`` [m] (its length does not matter while the bottom is above the plane)."""
-    return RocketPath(
-        head_m=jnp.array([target_m, target_m, 60.0]), bottom_m=jnp.array([target_m, target_m, 20.0])
-    )
 
 
 class TrackingRun(eqx.Module):
@@ -738,7 +763,7 @@ def run_tracking_loop(
 
     Args:
         controller: :class:`TrackingController`.
-        rocket: :class:`RocketPath` (``figure4_rocket()`` for Fig 4).
+        rocket: :class:`RocketPath` (Fig 4: a still rocket, ``experiments/figure4_controller.py``).
         save_ts: output times [s], increasing, from 0; the run ends at ``save_ts[-1]``.
         noise: a :class:`NoiseTrack` (``measurement_noise_track(key, controller, t1)``) or None.
         solver: a diffrax solver (default ``Tsit5``: the loop is smooth and non-stiff for

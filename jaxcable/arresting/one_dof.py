@@ -1,8 +1,9 @@
 r"""Rigid-cable 1-DOF design model of the passive-deceleration phase.
 
 Implements Sec. II.B of Zhang et al., "Arresting-Cable System for Robust Terminal Landing of
-Reusable Rockets" (J. Spacecraft Rockets 58(2), 2021): eqs. (12)-(24), Fig. 6 and the buffer
-entries of Table 1. The model is re-derived below rather than transcribed; the printed equations
+Reusable Rockets" (J. Spacecraft Rockets 58(2), 2021): eqs. (12)-(24), the peaks plotted in Fig. 6
+and the buffer entries of Table 1 (``experiments/figure6_one_dof.py`` draws the figure and lands
+the Table 1 design). The model is re-derived below rather than transcribed; the printed equations
 that disagree with the derivation are listed under "Corrections to the paper".
 
 Glossary (paper symbol -> name here)
@@ -130,8 +131,8 @@ m_w and the unrounded F_t_bar: ``F_t_bar m_r g / (4 alpha) - m_w g = 3.1346e5 N`
 m_w = 1388.9 kg eq. (15) gives F_f = 3.0886e5 N (unrounded F_t_bar, 1.3 % below Table 1) or
 3.1051e5 N (printed 15.86, 0.8 % below). The Table 1 pair gives F_t_bar = 15.7566 (0.14 % below the
 unrounded eq. 19) and a stop at 10.009 m. No simple factor reproduces 0.92 t (e.g. 6 alpha^2
-instead of 4 alpha^2 gives 0.926 t). ``paper_design`` builds the eq. (15) design; ``table1_design``
-builds the Table 1 values.
+instead of 4 alpha^2 gives 0.926 t). ``paper_design`` builds the eq. (15) design;
+``experiments/figure6_one_dof.py`` lands it beside the Table 1 values.
 """
 
 from __future__ import annotations
@@ -381,14 +382,6 @@ def stroke_peaks(m_t_bar, F_t_bar, v0_bar, n_theta: int = 2001) -> tuple[Array, 
     return _refined_max(acc), _refined_max(ten)
 
 
-@_floats_to_arrays
-def fig6_curves(m_t_bars, F_t_bar, v0_bar, n_theta: int = 2001) -> tuple[Array, Array]:
-    """Fig. 6: ``|z_bar''|_max`` and ``T_bar_max`` for each m_t_bar; shapes (n,) -> (n,), (n,)."""
-    return jax.vmap(stroke_peaks, in_axes=(0, None, None, None))(
-        jnp.asarray(m_t_bars), F_t_bar, v0_bar, n_theta
-    )
-
-
 def _bisect(f, lo, hi, iterations=80):
     f_lo, f_hi = f(lo), f(hi)
 
@@ -443,8 +436,6 @@ PAPER_L0 = 25.0  # Table 1: 2 l_0 = 50 m [m]
 PAPER_ALPHA = 3.0
 PAPER_STOP_DISTANCE = 10.0  # z_m [m]
 PAPER_M_T_BAR = 2.0  # design choice after eqs. (21) and (24)
-TABLE1_M_W = 920.0  # [kg]
-TABLE1_F_F = 3.13e5  # [N]
 
 
 def paper_design(m_t_bar=PAPER_M_T_BAR, F_t_bar=None, g=9.81) -> OneDofParams:
@@ -466,20 +457,6 @@ def paper_design(m_t_bar=PAPER_M_T_BAR, F_t_bar=None, g=9.81) -> OneDofParams:
         alpha=PAPER_ALPHA,
         m_w=float(m_w),
         F_f=float(F_f),
-        g=g,
-        cable_radius=0.02,
-    )
-
-
-def table1_design(g=9.81) -> OneDofParams:
-    """Table 1 as printed: m_w = 0.92 t, F_f = 3.13e5 N (m_t_bar = 1.325, not 2; see module doc)."""
-    return OneDofParams(
-        m_r=PAPER_ROCKET_MASS,
-        v0=PAPER_V0,
-        l_0=PAPER_L0,
-        alpha=PAPER_ALPHA,
-        m_w=TABLE1_M_W,
-        F_f=TABLE1_F_F,
         g=g,
         cable_radius=0.02,
     )
@@ -663,58 +640,6 @@ def _simulate(params, t1, n_save, solver, stepsize_controller, adjoint, max_step
     )
 
 
-# --------------------------------------------------------------------------------------------
-# Figure 6
-# --------------------------------------------------------------------------------------------
-
-
-def fig6(
-    path,
-    params: OneDofParams | None = None,
-    criteria: DesignCriteria | None = None,
-    m_t_bars=None,
-):
-    """Write Fig. 6 (|z_bar''|_max and T_bar_max versus m_t_bar) as a PNG at ``path``.
-
-    F_t_bar is fixed by eq. (19) from ``criteria.z_m``; v0_bar and T_bar_m from ``params``
-    (default: ``paper_design()``). Uses the Agg canvas directly (no pyplot state). Returns path.
-    """
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    params = paper_design() if params is None else params
-    criteria = DesignCriteria() if criteria is None else criteria
-    m_t_bars = jnp.linspace(0.0, 16.0, 321) if m_t_bars is None else jnp.asarray(m_t_bars)
-    vb = v0_bar(params.v0, params.l_0, params.g)
-    F_t_bar = friction_group_for_stop(vb, criteria.z_m / params.l_0)
-    T_m_bar = allowed_tension_bar(criteria.sigma_m, params.cable_radius, params.m_r, params.g)
-    acc, ten = fig6_curves(m_t_bars, F_t_bar, vb)
-    lower, upper = m_t_bar_bounds(F_t_bar, vb, criteria.a_m_bar, T_m_bar)
-
-    fig = Figure(figsize=(6.0, 4.0), dpi=150)
-    FigureCanvasAgg(fig)
-    ax = fig.add_subplot()
-    ax.plot(m_t_bars, acc, "r-", label=r"$|\bar z''|_{\max}$ (eq. 20)")
-    ax.plot(m_t_bars, ten, "b--", label=r"$\bar T_{\max}$ (eq. 23)")
-    ax.axhline(float(criteria.a_m_bar), color="r", lw=0.7, ls=":")
-    ax.axhline(float(T_m_bar), color="b", lw=0.7, ls=":")
-    ax.axvline(float(lower), color="k", lw=0.7, ls=":")
-    ax.axvline(float(upper), color="k", lw=0.7, ls=":")
-    ax.axvline(PAPER_M_T_BAR, color="0.5", lw=0.7)
-    ax.set_xlabel(r"$\bar m_t$")
-    ax.set_ylabel("dimensionless peak")
-    ax.set_title(
-        rf"$\bar F_t$ = {float(F_t_bar):.3f}; bounds {float(lower):.3f} $\leq \bar m_t \leq$ "
-        rf"{float(upper):.3f}",
-        fontsize=9,
-    )
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path)
-    return path
-
-
 __all__ = [
     "G_UNIT",
     "N_BUFFERS",
@@ -728,8 +653,6 @@ __all__ = [
     "buffer_from_groups",
     "design_groups",
     "energy_bar",
-    "fig6",
-    "fig6_curves",
     "friction_group_for_stop",
     "m_t_bar_bounds",
     "paper_design",
@@ -738,7 +661,6 @@ __all__ = [
     "speed_sq_bar",
     "stop_distance_bar",
     "stroke_peaks",
-    "table1_design",
     "tension_bar",
     "v0_bar",
 ]

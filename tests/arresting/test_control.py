@@ -30,7 +30,6 @@ from jaxcable.arresting.control import (  # noqa: E402
     TrackingController,
     delayed_loop_reference,
     delayed_measurement,
-    figure4_rocket,
     filter_noise_samples,
     kappa,
     measurement_noise,
@@ -44,6 +43,14 @@ T1 = 10.0
 SAVE_TS = jnp.linspace(0.0, T1, 201)  # 0.05 s: contains t_c / 2 = 5 s and t = 4 s
 TARGET = 17.0  # Fig 4's "e = 17": initial error 17 m
 KEY = jax.random.PRNGKey(4)
+
+
+def figure4_rocket(target_m):
+    """Fig 4's constant target: a still, vertical rocket whose bottom is 20 m above the plane at
+    x = y = ``target_m`` (as ``experiments/figure4_controller.py`` builds it)."""
+    return RocketPath(
+        head_m=jnp.array([target_m, target_m, 60.0]), bottom_m=jnp.array([target_m, target_m, 20.0])
+    )
 
 
 @pytest.fixture(scope="module")
