@@ -35,7 +35,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 def _sweep_rate(n, batch, fidelity, t_end):
-    from jaxcable.studies.sweep import run_qmc_sweep
+    from jaxcable.arresting.sweep import run_qmc_sweep
 
     times = []
     with tempfile.TemporaryDirectory() as tmp:

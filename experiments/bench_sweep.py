@@ -71,7 +71,7 @@ def worker(job: dict) -> dict:
     import numpy as np
 
     import jaxcable
-    from jaxcable.studies.sweep import run_qmc_sweep, summarize_sweep
+    from jaxcable.arresting.sweep import run_qmc_sweep, summarize_sweep
 
     jaxcable.enable_x64()
     tmp = Path(tempfile.mkdtemp(prefix="bench_sweep_"))
@@ -111,7 +111,9 @@ def worker(job: dict) -> dict:
             )
             print(json.dumps(out["results"][-1]), file=sys.stderr, flush=True)
     elif job["kind"] == "paper":
-        from jaxcable.studies.sweep import passive_case_fn, plot_histories, plot_landing_plane, run_histories
+        from jaxcable.arresting.sweep import passive_case_fn
+        from jaxcable.arresting.sweep_plots import plot_histories, plot_landing_plane
+        from jaxcable.studies.sweep import run_histories
         from jaxcable.arresting.uncertainty import halton_samples
 
         for scenario in job["scenarios"]:
@@ -192,7 +194,7 @@ def write_md(data: dict, path: Path):
         lines.append("")
     paper = data.get("paper", [])
     if paper:
-        from jaxcable.studies.sweep import summary_markdown
+        from jaxcable.arresting.sweep import summary_markdown
 
         lines += [
             "## Paper-style statistics, rigid level (Tables 7 and 9)",

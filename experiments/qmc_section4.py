@@ -30,15 +30,9 @@ from _report import ROOT, finish, header, output_dir, start
 import jaxcable
 from jaxcable.arresting.passive import DEFAULT_CABLE_DAMPING_S
 from jaxcable.arresting.uncertainty import SCENARIOS, halton_samples, scenario_settings
-from jaxcable.studies.sweep import (
-    plot_histories,
-    plot_landing_plane,
-    plot_tracking,
-    qmc_case_fn,
-    run_histories,
-    run_qmc_sweep,
-    summarize_sweep,
-)
+from jaxcable.arresting.sweep import qmc_case_fn, run_qmc_sweep, summarize_sweep
+from jaxcable.arresting.sweep_plots import plot_histories, plot_landing_plane, plot_tracking
+from jaxcable.studies.sweep import run_histories
 
 STEM = "qmc_section4"
 PAPER_TABLE7 = dict(cases=100, captured=100, stopped=100, success_rate=1.0)

@@ -125,7 +125,8 @@ def worker(job_json: str, out_path: str) -> int:
     import jaxcable
 
     jaxcable.enable_x64(job["precision"] == "float64")
-    from jaxcable.studies.bench import BenchCase, prepare_case, timed_run
+    import jaxcable.arresting  # noqa: F401  (registers the arresting bench cases)
+    from jaxcable.studies.bench import make_bench_case as BenchCase, prepare_case, timed_run
 
     case = BenchCase(**case_spec(job["case"]))
     run = prepare_case(case)
@@ -222,6 +223,7 @@ def rhs_evals(r):
 
 
 def analyse(rows):
+    import jaxcable.arresting  # noqa: F401  (registers the arresting bench cases)
     from jaxcable.studies.bench import QUANTITIES, relative_errors
 
     refs = {r["case"]: r for r in rows if r.get("role") == "reference" and r.get("ok")}
@@ -262,6 +264,7 @@ def _fmt(x, spec=".1e"):
 
 
 def write_report(out_dir: Path, meta: dict, quick: bool):
+    import jaxcable.arresting  # noqa: F401  (registers the arresting bench cases)
     from jaxcable.studies.bench import QUANTITIES
 
     rows = load_rows(out_dir)
@@ -383,6 +386,7 @@ def plot(out_dir: Path, runs, refs):
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import jaxcable.arresting  # noqa: F401  (registers the arresting bench cases)
     from jaxcable.studies.bench import QUANTITIES
 
     from matplotlib.ticker import NullFormatter

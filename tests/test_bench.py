@@ -1,4 +1,4 @@
-"""``jaxcable bench`` (jaxcable/bench.py): the short speed-against-error benchmark.
+"""``jaxcable bench`` (jaxcable/studies/bench.py, jaxcable/cli/bench.py): the short speed-against-error benchmark.
 
 Runs the cheapest case (the 1-DOF passive model, ~10 s to compile) once per module and checks the
 printed table, the JSON and CSV outputs, that the measured error falls as the tolerance tightens,
@@ -13,7 +13,9 @@ import numpy as np
 import pytest
 
 from jaxcable.arresting.one_dof import params_groups, stop_distance_bar
-from jaxcable.studies.bench import BenchCase, bench_main, one_dof_params, relative_errors, run_bench
+from jaxcable.arresting.bench_cases import one_dof_params
+from jaxcable.cli.bench import bench_main
+from jaxcable.studies.bench import make_bench_case, relative_errors, run_bench
 
 RTOLS = ("1e-3", "1e-5", "1e-7")
 
@@ -85,11 +87,11 @@ def test_table_printed(capsys, bench_json):
 
 def test_bad_input():
     with pytest.raises(ValueError, match="level"):
-        BenchCase("passive", "segments")
+        make_bench_case("passive", "segments")
     with pytest.raises(ValueError, match="scene"):
-        BenchCase("orbit", "rigid")
+        make_bench_case("orbit", "rigid")
     with pytest.raises(ValueError, match="t_end_s"):
-        BenchCase("passive", "rigid", t_end_s=-1.0)
+        make_bench_case("passive", "rigid", t_end_s=-1.0)
     with pytest.raises(ValueError, match="bench case"):
         run_bench(("moon",))
     with pytest.raises(ValueError, match="rtol"):

@@ -37,20 +37,10 @@ from jaxcable.arresting.uncertainty import (
     scenario_ranges,
     scenario_settings,
 )
-from jaxcable.studies.sweep import (
-    SAVE_SPACING_S,
-    AbstractCaseFunction,
-    case_fn_for,
-    plot_histories,
-    plot_landing_plane,
-    process_indices,
-    read_sweep_csv,
-    run_qmc_sweep,
-    run_sweep,
-    summarize_sweep,
-    summary_markdown,
-    sweep_main,
-)
+from jaxcable.arresting.sweep import SAVE_SPACING_S, case_fn_for, run_qmc_sweep, summarize_sweep, summary_markdown
+from jaxcable.arresting.sweep_plots import plot_histories, plot_landing_plane
+from jaxcable.cli.sweep import sweep_main
+from jaxcable.studies.sweep import AbstractCaseFunction, process_indices, read_sweep_csv, run_sweep
 
 TESTS = Path(__file__).resolve().parent
 # The physics sweep of these tests: 7 cases (not a multiple of 3 or 4, so the last chunk is padded
@@ -150,7 +140,7 @@ def test_process_indices_cover_every_case_once():
 
 
 def test_full_phase_registered_at_every_sweep_level(tmp_path, capsys):
-    # the two-phase case function registers itself on first use of phase "full"; its ale/full
+    # the two-phase case function is registered ("arresting.full") on import of jaxcable.arresting; its ale/full
     # levels mesh cables on the host from the captured state (tests/test_sweep_two_phase.py runs one)
     for level in ("rigid", "ale", "full"):
         fn = case_fn_for("full", level)
@@ -171,7 +161,7 @@ _SHARDED_SCRIPT = textwrap.dedent(
     """
     import json, sys, jax
     import jaxcable
-    from jaxcable.studies.sweep import run_qmc_sweep
+    from jaxcable.arresting.sweep import run_qmc_sweep
     from test_sweep import SWEEP
     jaxcable.enable_x64()
     run_qmc_sweep(out=sys.argv[1], progress=False, **SWEEP)
@@ -525,7 +515,7 @@ def test_sweep_rows_match_single_landings(reference):
     from jaxcable.arresting.landing import LEVEL_DEFAULTS
     from jaxcable.arresting.passive import landing_outputs, passive_landing_scene
 
-    from jaxcable.studies.sweep import passive_case_fn
+    from jaxcable.arresting.sweep import passive_case_fn
 
     _, table = reference
     t_end = SWEEP["t_end_s"]
@@ -554,7 +544,8 @@ def test_sweep_rows_match_single_landings(reference):
 @pytest.mark.slow
 def test_histories_and_cli_plots(reference, tmp_path, capsys):
     """Figs 18-20 histories in a separate batch: their maxima are the sweep's outputs."""
-    from jaxcable.studies.sweep import passive_case_fn, run_histories
+    from jaxcable.arresting.sweep import passive_case_fn
+    from jaxcable.studies.sweep import run_histories
 
     src, table = reference
     case_fn = passive_case_fn("rigid", t_end_s=SWEEP["t_end_s"])

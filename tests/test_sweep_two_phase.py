@@ -17,19 +17,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import jaxcable.studies.sweep as sweep_module
+import jaxcable.cli.sweep as sweep_module
 from jaxcable.arresting.layout import CaptureState
 from jaxcable.arresting.two_phase import SCENARIO_SETTINGS, run_two_phase
 from jaxcable.arresting.uncertainty import UNCERTAIN_PARAMETERS, halton_samples, scenario_ranges
-from jaxcable.studies.sweep import (
-    CAPTURED_PREFIX,
-    case_key,
-    read_sweep_csv,
-    run_qmc_sweep,
-    summarize_sweep,
-    summary_markdown,
-    sweep_main,
-)
+from jaxcable.arresting.sweep import CAPTURED_PREFIX, case_key, run_qmc_sweep, summarize_sweep, summary_markdown
+from jaxcable.cli.sweep import sweep_main
+from jaxcable.studies.sweep import read_sweep_csv
 
 # scenario II (the shortest tracking phase, 6 s), seed 1 (so a histories run that ignored the
 # sweep's seed would draw other noise and gusts), 0.6 s after capture (still descending)

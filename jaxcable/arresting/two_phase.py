@@ -77,22 +77,28 @@ import numpy as np
 
 from jaxcable.core.validation import check_choice, check_positive
 from jaxcable.core.scene import AbstractScene
-from jaxcable.studies.sweep import CAPTURED_PREFIX, AbstractCaseFunction, case_key, criteria_columns, passive_histories
 from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.cable_sets import throat_weights
 from jaxcable.arresting.control import TrackingController, filtered_measurement, measurement_noise_track, target_point
 from jaxcable.arresting.layout import HOOK_OF_CABLE, ArrestingLayout, CaptureState
 from jaxcable.arresting.passive import DEFAULT_CABLE_DAMPING_S, LandingCriteria, landing_outputs, passive_landing_scene, smooth_landing_outputs
+from jaxcable.arresting.sweep import CAPTURED_PREFIX, AbstractLandingCaseFunction, case_key, criteria_columns, passive_histories
 from jaxcable.components.wind import AeroCoefficients, WindField, rocket_aero_loads
+from jaxcable.studies import registry
 
 __all__ = [
     "SCENARIO_SETTINGS",
     "TrackingScene",
     "TrackingState",
+    "TwoPhaseCaseFunction",
     "TwoPhaseRun",
+    "captured_state",
     "deviated_case",
+    "event_occurred",
+    "interp",
     "run_two_phase",
     "tracking_scene",
+    "two_phase_case_fn",
     "two_phase_outputs",
 ]
 
@@ -323,7 +329,9 @@ def tracking_scene(
     )
 
 
-def _captured_state(scene: TrackingScene, state) -> CaptureState:
+def captured_state(scene: TrackingScene, state) -> CaptureState:
+    """The state of O at ``state`` as a :class:`CaptureState` (position [m], velocity [m/s], attitude
+    [deg] and rates [deg/s] of the rocket's reference point): Table 5's quantities at capture."""
     o, vo = scene.rocket.reference_point(state.rocket)
     rotvec, omega = scene.rocket.reference_attitude(state.rocket)
     deg = 180.0 / jnp.pi
@@ -334,7 +342,9 @@ def _captured_state(scene: TrackingScene, state) -> CaptureState:
     )  # fmt: skip
 
 
-def _interp(ts, ys, t):
+def interp(ts, ys, t):
+    """``ys`` (saved on ``ts`` [s], NaN-padded after the run ended) interpolated at time ``t`` [s];
+    past the last saved time, the last value."""
     finite = jnp.isfinite(ts)
     ts_ = jnp.where(finite, ts, jnp.max(jnp.where(finite, ts, -jnp.inf)))
     return jnp.interp(t, ts_, ys)
@@ -437,7 +447,8 @@ def _air_kwargs(scene, out1, passive_air):
     return dict(wind=scene.wind, aero=scene.aero, wind_time_offset_s=out1["capture_time_s"])
 
 
-def _event_occurred(status):
+def event_occurred(status):
+    """Whether a diffrax result code is ``event_occurred`` (phase 1 ended at the phase switch)."""
     import diffrax
 
     return status == int(diffrax.RESULTS.event_occurred._value)
@@ -468,17 +479,17 @@ def tracking_outputs(
     last = jnp.argmax(jnp.where(jnp.isfinite(track.ts), track.ts, -1.0))
     err_capture = track.probes["tracking_error_m"][last]
     out = dict(
-        captured=(margin > 0.0) & _event_occurred(track.status),
+        captured=(margin > 0.0) & event_occurred(track.status),
         tracking_ok=err_capture < tracking_tolerance_m,
         capture_margin_m=margin,
         smooth_capture_margin_m=-margin_width_m * jax.scipy.special.logsumexp(-margins / margin_width_m),
         capture_margins_m=margins,
-        tracking_error_m=_interp(track.ts, track.probes["tracking_error_m"], 0.5 * scene.controller.tracking_time_s),
+        tracking_error_m=interp(track.ts, track.probes["tracking_error_m"], 0.5 * scene.controller.tracking_time_s),
         tracking_error_at_capture_m=err_capture,
         capture_time_s=track.t_final,
         tracking_status=track.status,
         tracking_steps=track.num_steps,
-        captured_state=_captured_state(scene, final),
+        captured_state=captured_state(scene, final),
         frame_centre_at_capture_m=scene.frame_centre(final),
     )
     return track, out
@@ -523,8 +534,8 @@ def run_two_phase(
     return TwoPhaseRun(res, track, land.result, fidelity, scenario)
 
 
-class TwoPhaseCaseFunction(AbstractCaseFunction):
-    """One two-phase case for :mod:`jaxcable.studies.sweep` (``phase="full"``): the 15 uncertain parameters
+class TwoPhaseCaseFunction(AbstractLandingCaseFunction):
+    """One two-phase case for :func:`jaxcable.studies.sweep.run_sweep` (``phase="full"``): the 15 uncertain parameters
     of Table 2 -> scalar outputs. The noise and gust seeds are derived from the sweep's seed and the
     case's inputs, so a case reproduces wherever it sits in a batch.
 
@@ -629,7 +640,7 @@ class TwoPhaseCaseFunction(AbstractCaseFunction):
             tracking_error_at_capture_m=o["tracking_error_at_capture_m"],
             capture_time_s=o["capture_time_s"],
             **{f"{CAPTURED_PREFIX}{f}": getattr(capture, f) for f in capture.__dataclass_fields__},
-            status_code=jnp.where(_event_occurred(o["tracking_status"]), o["passive_status"], o["tracking_status"]),
+            status_code=jnp.where(event_occurred(o["tracking_status"]), o["passive_status"], o["tracking_status"]),
             num_steps=o["tracking_steps"] + o["passive_steps"],
         )
 
@@ -638,7 +649,7 @@ class TwoPhaseCaseFunction(AbstractCaseFunction):
         terminal-guidance point, ``o_position_m`` (n, 3) [m], ``tracking_error_m`` and
         ``true_tracking_error_m`` [m], against the measured and the true target; NaN after
         capture), ``capture_time_s``, ``captured_position_m`` (3,), ``captured``, and the passive
-        phase's histories (:func:`jaxcable.studies.sweep.passive_histories`: time since capture)."""
+        phase's histories (:func:`jaxcable.arresting.sweep.passive_histories`: time since capture)."""
         if self.host_build:
             return self.solve_histories(self.build(params))
         o = self._outputs(params, keep_histories=True)
@@ -657,7 +668,8 @@ class TwoPhaseCaseFunction(AbstractCaseFunction):
 
 def two_phase_case_fn(fidelity="rigid", *, scenario="I", seed=0, buffer=None, layout=None, gain_per_s=None,
                       t_end_s=2.0, solver=None, rtol=None, max_steps=None, cable_damping_s=DEFAULT_CABLE_DAMPING_S, **_ignored):  # fmt: skip
-    """Factory registered with :func:`jaxcable.studies.sweep.register_case_fn` for ``phase="full"``."""
+    """The two-phase case function with the scenario's controller gain and Table 1's buffer; registered
+    as ``"arresting.full"`` (``phase="full"`` of :func:`jaxcable.arresting.sweep.case_fn_for`)."""
     check_choice("scenario", scenario, SCENARIO_SETTINGS)
     if solver is not None or rtol is not None or max_steps is not None:
         raise ValueError("two-phase sweeps use the levels' default solver settings (--solver/--rtol/--max-steps: passive only)")
@@ -670,13 +682,9 @@ def two_phase_case_fn(fidelity="rigid", *, scenario="I", seed=0, buffer=None, la
     )  # fmt: skip
 
 
-def _register():
-    from jaxcable.studies.sweep import register_case_fn
+registry.register_case_function("arresting.full", two_phase_case_fn)
 
-    register_case_fn("full", two_phase_case_fn)
-
-
-_register()
+_event_occurred = event_occurred  # the name arresting/design.py imports
 
 
 def _to_python(out):

@@ -42,6 +42,7 @@ import numpy as np
 
 from jaxcable.core.validation import check_choice, check_positive
 from jaxcable.arresting.layout import CaptureState
+from jaxcable.studies import qmc
 
 __all__ = [
     "PARAMETER_DESCRIPTIONS",
@@ -158,24 +159,16 @@ def scenario_ranges(scenario: str = "I", phase: str = "passive") -> dict:
 def halton_unit(n: int, seed: int = 0) -> np.ndarray:
     """The first ``n`` points of the scrambled 15-dimensional Halton sequence of ``seed``: (n, 15) in
     [0, 1). Deterministic; the first rows of a larger draw equal a smaller draw (same seed)."""
-    from scipy.stats import qmc
-
-    n = _check_count(n)
-    if n == 0:
-        return np.zeros((0, len(UNCERTAIN_PARAMETERS)))
-    # Halton (not Sobol): the paper's design, and any n is balanced (Sobol wants powers of two).
-    # Scrambling (random digit permutations fixed by the seed) removes the strong correlations of the
-    # unscrambled sequence between high dimensions (15 primes up to 47).
-    return qmc.Halton(d=len(UNCERTAIN_PARAMETERS), scramble=True, seed=int(seed)).random(n)
+    # Halton (not Sobol): the paper's design, and any n is balanced; scrambled (15 primes up to 47:
+    # the unscrambled sequence correlates its high dimensions). See jaxcable.studies.qmc.
+    return qmc.halton_unit(_check_count(n), len(UNCERTAIN_PARAMETERS), seed)
 
 
 def halton_samples(n: int, scenario: str = "I", phase: str = "passive", seed: int = 0) -> dict:
     """``n`` quasi-Monte Carlo cases: ``{name: np.ndarray (n,)}`` for every name of
     ``UNCERTAIN_PARAMETERS``, each mapped linearly from the Halton point onto
     :func:`scenario_ranges` ``(scenario, phase)``."""
-    ranges = scenario_ranges(scenario, phase)
-    u = halton_unit(n, seed)
-    return {name: lo + u[:, j] * (hi - lo) for j, (name, (lo, hi)) in enumerate(ranges.items())}
+    return qmc.scaled_halton(scenario_ranges(scenario, phase), _check_count(n), seed)
 
 
 def captures_from_samples(samples: dict, vz_m_s: float = CAPTURE_VZ_M_S) -> CaptureState:

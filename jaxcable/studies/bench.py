@@ -1,124 +1,142 @@
-"""Speed against error on the user's machine: ``jaxcable bench`` (issue 6).
+"""Speed against error on the user's machine: the harness behind ``jaxcable bench``.
 
-Each shipped scene is run at a few solver tolerances and compared with a tight-tolerance reference
-of the same scene (same structure, same discretisation: the error measured is the time-integration
-error). Errors are relative errors in the quantities users read:
+Each registered benchmark case (a scene configuration, :class:`AbstractBenchCase`, registered by its
+system with :func:`jaxcable.studies.registry.register_bench_case`) is run at a few solver tolerances
+and compared with a tight-tolerance reference of the same scene (same structure, same
+discretisation: the error measured is the time-integration error). Errors are relative errors in
+the quantities users read (each scene's ``quantities``; the shipped ones are listed in
+:mod:`jaxcable.throw.bench_cases` and :mod:`jaxcable.arresting.bench_cases`).
 
-=============  =====================================================================================
-scene          quantities
-=============  =====================================================================================
-``throw``      range [m], max speed [m/s], flight time [s] (line-throwing rocket, to ground impact)
-``passive``    z_max [m], a_max [g], sigma_max [MPa] (passive deceleration, design case, Table 1)
-``two_phase``  capture margin [m], tracking error at t_c/2 [m], z_max, a_max, sigma_max (deviated
-               case of section IV.A, scenario I; both phases at the same solver and tolerances)
-=============  =====================================================================================
-
-:class:`BenchCase` names one configuration (scene, level, size, end time); :func:`prepare_case` turns
-it into a ``run(solver, rtol, atol, max_steps)`` function whose compiled code is reused across
-tolerances (tolerances are passed as arrays, so a new tolerance does not recompile);
-:func:`timed_run` times it (wall clock after compilation; the first call of a (case, solver) pair is
-reported separately as compile time). ``experiments/work_precision.py`` runs the full study with
-the same functions; :func:`bench_main` is the short version behind ``jaxcable bench``.
-
-The ``two_phase`` runner integrates phase 1 with the requested solver too (``two_phase_outputs``
-fixes phase 1 at Tsit5, rtol = 1e-6), so it rebuilds the capture outputs here from the
-tracking scene's own methods.
+A case's :meth:`~AbstractBenchCase.runner` builds its scene once and returns
+``run(solver, rtol, atol, max_steps)``; :func:`prepare_case` wraps it so that its compiled code is
+reused across tolerances (tolerances are passed as arrays, so a new tolerance does not recompile)
+and its outputs come back as host values; :func:`timed_run` times it (wall clock [s] after
+compilation; the first call of a (case, solver) pair is reported separately as compile time).
+``experiments/work_precision.py`` runs the full study with the same functions; :func:`run_bench`
+is the short version behind ``jaxcable bench`` (:mod:`jaxcable.cli.bench`).
 
 Choices: ``jaxcable bench`` takes its reference with the first solver of the run (default Tsit5
 at rtol 1e-10) so that the reference compiles nothing extra; the full study uses Dopri8 at 1e-10
-(measured: the errors at rtol 1e-4..1e-8 against either reference agree to two digits). In
-float32 (``--float32``) the two-phase case draws its noise and gust in float32, a different
-realisation than float64 for the same seed (``jax.random`` draws depend on the dtype): compare
-float32 with float32 only.
+(measured: the errors at rtol 1e-4..1e-8 against either reference agree to two digits).
 """
 
 from __future__ import annotations
 
-import argparse
 import csv
-import json
 import math
 import os
-import sys
 import time
-from typing import Callable
+from collections.abc import Callable, Mapping
+from typing import ClassVar
 
+import diffrax
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxcable.core.provenance import machine_info
+from jaxcable.core.simulate import simulate, status_message
 from jaxcable.core.validation import check_choice, check_positive
+from jaxcable.studies import registry
 
 __all__ = [
-    "BenchCase",
-    "DEFAULT_BENCH_CASES",
+    "AbstractBenchCase",
+    "COLUMNS",
     "QUANTITIES",
-    "bench_main",
-    "one_dof_params",
+    "bench_scenes",
+    "format_table",
+    "json_safe",
+    "make_bench_case",
     "prepare_case",
     "relative_errors",
     "run_bench",
+    "simulation_runner",
     "timed_run",
+    "write_csv",
 ]
 
-SCENES = ("throw", "passive", "two_phase")
-QUANTITIES = {
-    "throw": ("range_m", "max_speed_mps", "flight_time_s"),
-    "passive": ("z_max_m", "a_max_g", "sigma_max_mpa"),
-    "two_phase": ("capture_margin_m", "tracking_error_m", "z_max_m", "a_max_g", "sigma_max_mpa"),
-}
-"""The user quantities compared with the reference, per scene."""
 
-LEVELS = {"throw": ("segments",), "passive": ("1dof", "rigid", "ale", "full"), "two_phase": ("rigid",)}
-
-
-class BenchCase(eqx.Module):
+class AbstractBenchCase(eqx.Module):
     """One scene configuration to time (all fields static: a case is a structure, not a parameter).
 
+    A subclass sets the class attributes ``scene`` (its name in tables), ``levels`` (the model
+    levels it accepts) and ``quantities`` (the outputs compared with the reference), adds the fields
+    that size its scene, and implements :meth:`runner`.
+
     Attributes:
-        scene: ``"throw"``, ``"passive"`` or ``"two_phase"``.
-        level: ``"segments"`` (throw), ``"1dof"``/``"rigid"``/``"ale"``/``"full"`` (passive),
-            ``"rigid"`` (two_phase: the passive phase's level).
-        t_end_s: end time [s] (throw: latest time, the flight ends at impact ~9.2 s; passive: time
-            after capture; two_phase: time after capture of the passive phase).
-        segment_length_m: rope segment length [m] (throw).
-        rope_length_m: rope in the box [m] (throw; sets the array sizes).
-        angle_deg: launch elevation [deg] (throw).
-        n_span_elements, n_fine: ALE span mesh (passive ``ale``/``full``), see
-            :func:`jaxcable.arresting.passive.passive_landing_scene`.
-        scenario: two-phase scenario of Table 4 (``"I"``, ``"II"``, ``"III"``).
+        level: the model level (one of the subclass's ``levels``).
+        t_end_s: end time of the simulation [s].
     """
 
-    scene: str = eqx.field(static=True)
     level: str = eqx.field(static=True)
     t_end_s: float = eqx.field(static=True, default=30.0)
-    segment_length_m: float = eqx.field(static=True, default=1.0)
-    rope_length_m: float = eqx.field(static=True, default=750.0)
-    angle_deg: float = eqx.field(static=True, default=30.0)
-    n_span_elements: int = eqx.field(static=True, default=16)
-    n_fine: int = eqx.field(static=True, default=8)
-    scenario: str = eqx.field(static=True, default="I")
+
+    scene: ClassVar[str]
+    levels: ClassVar[tuple[str, ...]]
+    quantities: ClassVar[tuple[str, ...]]
 
     def __check_init__(self):
-        check_choice("scene", self.scene, SCENES)
-        check_choice(f"level (scene {self.scene})", self.level, LEVELS[self.scene])
+        check_choice(f"level (scene {self.scene})", self.level, self.levels)
         check_positive("t_end_s", self.t_end_s)
-        check_positive("segment_length_m", self.segment_length_m)
-        check_positive("rope_length_m", self.rope_length_m)
 
     @property
     def label(self) -> str:
         """Short name for tables: the level plus the size that matters for it."""
-        if self.scene == "throw":
-            return f"{self.segment_length_m:g} m segments"
-        if self.scene == "passive" and self.level in ("ale", "full"):
-            return f"{self.level} ({self.n_span_elements} el.)"
         return self.level
 
-    @property
-    def quantities(self) -> tuple:
-        return QUANTITIES[self.scene]
+    def runner(self) -> Callable:
+        """Build the scene once; return ``run(solver: str, rtol, atol, max_steps: int) -> dict`` of
+        arrays: the ``quantities``, ``num_steps``, ``num_rejected`` (-1 where not reported) and
+        ``status`` (0 success, else the diffrax result code; -1: NaN outputs). ``rtol`` and ``atol``
+        come in as arrays (a new tolerance does not recompile)."""
+        raise NotImplementedError
+
+
+def simulation_runner(scene, t_end_s: float, quantities) -> Callable:
+    """The ``run`` of :meth:`AbstractBenchCase.runner` for a scene whose
+    :func:`~jaxcable.core.simulate.simulate` outputs hold ``quantities``, simulated to ``t_end_s`` [s]."""
+
+    def run(solver, rtol, atol, max_steps):
+        res = simulate(scene, t_end_s, solver=solver, rtol=rtol, atol=atol, max_steps=max_steps)
+        return {**{k: res.outputs[k] for k in quantities}, "num_steps": res.num_steps,
+                "num_rejected": res.num_rejected, "status": res.status}  # fmt: skip
+
+    return run
+
+
+def bench_scenes() -> dict[str, type]:
+    """The scenes of the registered benchmark cases: ``{scene: its AbstractBenchCase subclass}``."""
+    scenes = {}
+    for name in registry.names("bench case"):
+        cls = type(registry.bench_case(name))
+        scenes.setdefault(cls.scene, cls)
+    return scenes
+
+
+def make_bench_case(scene: str, level: str, **options) -> AbstractBenchCase:
+    """A benchmark case of a registered ``scene`` at ``level``, with the scene's size options
+    (e.g. ``segment_length_m`` for ``"throw"``, ``n_span_elements`` for ``"passive"``) and ``t_end_s``."""
+    scenes = bench_scenes()
+    check_choice("scene", scene, scenes)
+    return scenes[scene](level, **options)
+
+
+class _SceneQuantities(Mapping):
+    """``{scene: quantities}`` of the registered scenes, read from the registry when accessed."""
+
+    def __getitem__(self, scene):
+        return bench_scenes()[scene].quantities
+
+    def __iter__(self):
+        return iter(bench_scenes())
+
+    def __len__(self):
+        return len(bench_scenes())
+
+
+QUANTITIES: Mapping[str, tuple[str, ...]] = _SceneQuantities()
+"""The user quantities compared with the reference, per registered scene."""
 
 
 def _float(x):
@@ -126,143 +144,20 @@ def _float(x):
 
 
 # ---------------------------------------------------------------------------------------------
-# Runners: case -> run(solver, rtol, atol, max_steps) -> dict (quantities, num_steps, ...)
+# Running and timing one case
 # ---------------------------------------------------------------------------------------------
 
 
-def _simulate_outputs(scene, t1, solver, rtol, atol, max_steps):
-    from jaxcable.core.simulate import simulate
-
-    res = simulate(scene, t1, solver=solver, rtol=rtol, atol=atol, max_steps=max_steps)
-    return res.outputs, res.num_steps, res.num_rejected, res.status
-
-
-def _throw_runner(case: BenchCase):
-    from jaxcable.throw import line_throwing_scene
-
-    scene = line_throwing_scene(case.angle_deg, case.segment_length_m, case.rope_length_m)
-
-    def run(solver, rtol, atol, max_steps):
-        out, steps, rejected, status = _simulate_outputs(scene, case.t_end_s, solver, rtol, atol, max_steps)
-        return {**{k: out[k] for k in QUANTITIES["throw"]}, "num_steps": steps, "num_rejected": rejected,
-                "status": status}  # fmt: skip
-
-    return run
-
-
-def one_dof_params():
-    """:class:`~jaxcable.arresting.one_dof.OneDofParams` of the design case with the mass, layout and
-    buffer of the other passive levels (the mapping :func:`jaxcable.arresting.landing.run_landing`
-    uses for level ``1dof``)."""
-    from jaxcable.arresting.buffer import BufferDevice
-    from jaxcable.arresting.layout import ArrestingLayout
-    from jaxcable.arresting.one_dof import OneDofParams
-    from jaxcable.arresting.landing_rocket import rigid_landing_rocket
-
-    layout, buffer = ArrestingLayout(), BufferDevice()
-    return OneDofParams(
-        m_r=rigid_landing_rocket(hinged_hooks=False).total_mass_kg,
-        v0=20.0,
-        l_0=layout.half_span_m,
-        alpha=buffer.transfer_rate,
-        m_w=buffer.counterweight_mass_kg,
-        F_f=buffer.brake_force_N,
-        cable_radius=layout.cable_radius_m,
-    )
-
-
-def _one_dof_runner(case: BenchCase):
-    """The 1-DOF model of section II.B (:func:`one_dof_params`)."""
-    import diffrax
-
-    from jaxcable.arresting.one_dof import simulate_one_dof
-    from jaxcable.core.simulate import make_solver
-
-    params = one_dof_params()
-
-    def run(solver, rtol, atol, max_steps):
-        controller = diffrax.PIDController(rtol=rtol, atol=atol)
-        sol = simulate_one_dof(params, t1=case.t_end_s, solver=make_solver(solver), stepsize_controller=controller,
-                               max_steps=max_steps)  # fmt: skip
-        # simulate_one_dof reports no step count or status; a failed solve shows as NaN outputs
-        nan_i = jnp.asarray(-1)
-        return dict(z_max_m=sol.z_max, a_max_g=sol.a_max, sigma_max_mpa=sol.sigma_max, num_steps=nan_i,
-                    num_rejected=nan_i, status=jnp.where(jnp.isfinite(sol.z_max), 0, -1))  # fmt: skip
-
-    return run
-
-
-def _passive_runner(case: BenchCase):
-    if case.level == "1dof":
-        return _one_dof_runner(case)
-    from jaxcable.arresting.passive import passive_landing_scene
-
-    kw = dict(n_span_elements=case.n_span_elements, n_fine=case.n_fine) if case.level != "rigid" else {}
-    scene = passive_landing_scene(case.level, t_end_s=case.t_end_s, **kw)
-
-    def run(solver, rtol, atol, max_steps):
-        out, steps, rejected, status = _simulate_outputs(scene, case.t_end_s, solver, rtol, atol, max_steps)
-        return {**{k: out[k] for k in QUANTITIES["passive"]}, "num_steps": steps, "num_rejected": rejected,
-                "status": status}  # fmt: skip
-
-    return run
-
-
-def _two_phase(scene, t_end_s, solver, rtol, atol, max_steps):
-    """Both phases at one solver setting (the outputs of ``two_phase_outputs`` that we compare)."""
-    from jaxcable.arresting.passive import passive_landing_scene
-    from jaxcable.arresting.two_phase import _captured_state, _event_occurred, _interp
-    from jaxcable.core.simulate import simulate
-
-    track = simulate(scene, scene.t_max_s, solver=solver, rtol=rtol, atol=atol, max_steps=max_steps)
-    final = track.final_state
-    passive = passive_landing_scene(
-        "rigid", _captured_state(scene, final), scene.layout, frame_centre_xy=scene.frame_centre(final),
-        t_end_s=t_end_s,
-    )  # fmt: skip
-    land = simulate(passive, t_end_s, solver=solver, rtol=rtol, atol=atol, max_steps=max_steps)
-    o = land.outputs
-    ok = _event_occurred(track.status) & land.ok
-    return dict(
-        capture_margin_m=jnp.min(scene.capture_margins(final)),
-        tracking_error_m=_interp(track.ts, track.probes["tracking_error_m"], 0.5 * scene.controller.tracking_time_s),
-        z_max_m=o["z_max_m"],
-        a_max_g=o["a_max_g"],
-        sigma_max_mpa=o["sigma_max_mpa"],
-        num_steps=track.num_steps + land.num_steps,
-        num_rejected=track.num_rejected + land.num_rejected,
-        status=jnp.where(ok, 0, jnp.where(_event_occurred(track.status), land.status, track.status)),
-    )
-
-
-_two_phase_jit = eqx.filter_jit(_two_phase)
-
-
-def _two_phase_runner(case: BenchCase):
-    from jaxcable.arresting.two_phase import tracking_scene
-
-    scene = tracking_scene(scenario=case.scenario)
-
-    def run(solver, rtol, atol, max_steps):
-        from jaxcable.core.simulate import make_solver
-
-        return _two_phase_jit(scene, case.t_end_s, make_solver(solver), rtol, atol, max_steps)
-
-    return run
-
-
-def prepare_case(case: BenchCase) -> Callable:
+def prepare_case(case: AbstractBenchCase) -> Callable:
     """``run(solver, rtol, atol=None, max_steps=100_000) -> dict`` of host values for ``case``: the
     case's quantities (floats), ``num_steps``, ``num_rejected`` (ints; -1 where the runner does not
     report them) and ``status`` (0 success or event, else the diffrax code; -1: NaN outputs).
 
     The scene is built once here; tolerances go in as arrays, so the compiled solve is reused for
     every tolerance of a (case, solver) pair."""
-    runner = {"throw": _throw_runner, "passive": _passive_runner, "two_phase": _two_phase_runner}[case.scene](case)
+    runner = case.runner()
 
     def run(solver: str, rtol: float, atol: float | None = None, max_steps: int = 100_000) -> dict:
-        import diffrax
-
         atol = rtol if atol is None else atol
         out = runner(solver, _float(rtol), _float(atol), int(max_steps))
         out = jax.tree_util.tree_map(np.asarray, jax.block_until_ready(out))
@@ -289,8 +184,6 @@ def _short_error(err: Exception) -> str:
 def _status_name(code: int) -> str:
     if code == -1:
         return "nan_outputs"
-    from jaxcable.core.simulate import status_message
-
     return status_message(code)
 
 
@@ -329,41 +222,28 @@ def relative_errors(rec: dict, ref: dict, quantities) -> dict:
 
 
 # ---------------------------------------------------------------------------------------------
-# The short benchmark (``jaxcable bench``)
+# The benchmark over registered cases
 # ---------------------------------------------------------------------------------------------
 
-DEFAULT_BENCH_CASES = {
-    # name: (case, solver of the runs). Sizes chosen to compile and run in ~2 min on 2 cores.
-    "throw": BenchCase("throw", "segments", t_end_s=30.0, segment_length_m=5.0),
-    "1dof": BenchCase("passive", "1dof", t_end_s=2.0),
-    "rigid": BenchCase("passive", "rigid", t_end_s=1.0),
-    "two_phase": BenchCase("two_phase", "rigid", t_end_s=1.0),
-    "ale": BenchCase("passive", "ale", t_end_s=0.05),
-}
-DEFAULT_CASE_NAMES = ("throw", "1dof", "rigid", "two_phase")
 
-
-def run_bench(case_names=DEFAULT_CASE_NAMES, solvers=("tsit5",), rtols=(1e-4, 1e-6, 1e-8),
+def run_bench(case_names, solvers=("tsit5",), rtols=(1e-4, 1e-6, 1e-8),
               reference_solver: str | None = None, reference_rtol: float = 1e-10, repeats: int = 1,
               progress: Callable[[str], None] | None = None) -> dict:  # fmt: skip
-    """Run the short benchmark: for each case, a reference at ``reference_rtol`` (with
-    ``reference_solver``; ``None``: the first of ``solvers``, which compiles nothing extra) and each
-    solver at each tolerance (atol = rtol). Returns a JSON-ready dict: ``machine`` (see
+    """Run the benchmark cases registered as ``case_names`` (:func:`jaxcable.studies.registry.bench_case`):
+    for each case, a reference at ``reference_rtol`` (with ``reference_solver``; ``None``: the first
+    of ``solvers``, which compiles nothing extra) and each solver at each tolerance (atol = rtol),
+    tolerances dimensionless. Returns a JSON-ready dict: ``machine`` (see
     :func:`jaxcable.core.provenance.machine_info`), ``rows`` (one per run), ``references``."""
-    from jaxcable.core.provenance import machine_info
-
     for r in list(rtols) + [reference_rtol]:
         check_positive("rtol", r)
-    unknown = [n for n in case_names if n not in DEFAULT_BENCH_CASES]
-    if unknown:
-        raise ValueError(f"unknown bench case(s) {unknown}; choose from {sorted(DEFAULT_BENCH_CASES)}")
+    cases = {name: registry.bench_case(name) for name in case_names}  # ValueError naming an unknown one
     ref_solver = reference_solver or solvers[0]
     say = progress or (lambda s: None)
     info = machine_info()
     t_start = time.perf_counter()
     rows, refs = [], {}
     for name in case_names:
-        case = DEFAULT_BENCH_CASES[name]
+        case = cases[name]
         run = prepare_case(case)
         seen, reported = set(), set()
         say(f"{name}: reference {ref_solver} rtol {reference_rtol:g} (first call compiles)")
@@ -447,61 +327,26 @@ def format_table(result) -> str:
     return header + "\n" + "\n".join(lines)
 
 
-def _parse_args(argv):
-    p = argparse.ArgumentParser(
-        prog="jaxcable bench",
-        description="short speed-against-error benchmark of the shipped scenes (see docs/work_precision.md; "
-        "the full study is experiments/work_precision.py)",
-    )
-    p.add_argument("--cases", nargs="+", default=list(DEFAULT_CASE_NAMES), choices=sorted(DEFAULT_BENCH_CASES),
-                   help="cases to run (default: %(default)s; 'ale' is the ALE level's first 0.05 s)")  # fmt: skip
-    p.add_argument("--solvers", nargs="+", default=["tsit5"], help="solvers (names of jaxcable.SOLVERS)")
-    p.add_argument("--rtols", nargs="+", type=float, default=[1e-4, 1e-6, 1e-8], help="tolerances (atol = rtol)")
-    p.add_argument("--reference-solver", default=None, help="solver of the reference (default: the first solver)")
-    p.add_argument("--reference-rtol", type=float, default=1e-10)
-    p.add_argument("--repeats", type=int, default=1, help="timed calls per setting (the fastest is reported)")
-    p.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
-    p.add_argument("--out", default=None, help="also write the rows to this CSV file")
-    p.add_argument("--float32", action="store_true", help="run in float32 (default float64)")
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress messages on stderr")
-    return p.parse_args(argv)
+def write_csv(result: dict, path) -> None:
+    """The rows of a :func:`run_bench` result as a CSV file: the table's columns, ``num_rejected``
+    and each quantity's relative error (``err_<quantity>``)."""
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        quantities = sorted({q for r in result["rows"] for q in r["errors"]})
+        w.writerow(list(COLUMNS) + ["num_rejected"] + [f"err_{q}" for q in quantities])
+        for r, t in zip(result["rows"], _table_rows(result)):
+            w.writerow([t[c] for c in COLUMNS] + [r["num_rejected"]]
+                       + [r["errors"].get(q, "") for q in quantities])  # fmt: skip
 
 
-def _json_safe(x):
+def json_safe(x):
     """NaN/inf -> None (strict JSON), NumPy scalars -> Python numbers."""
     if isinstance(x, dict):
-        return {k: _json_safe(v) for k, v in x.items()}
+        return {k: json_safe(v) for k, v in x.items()}
     if isinstance(x, (list, tuple)):
-        return [_json_safe(v) for v in x]
+        return [json_safe(v) for v in x]
     if isinstance(x, (np.floating, float)):
         return float(x) if math.isfinite(x) else None
     if isinstance(x, np.integer):
         return int(x)
     return x
-
-
-def bench_main(argv: list[str] | None = None) -> int:
-    """``jaxcable bench``: run :func:`run_bench` and print a table (or ``--json``); ``--out`` CSV."""
-    from jaxcable.core.config import enable_x64
-    from jaxcable.core.simulate import SOLVERS
-
-    args = _parse_args(argv)
-    enable_x64(not args.float32)
-    for s in args.solvers + ([args.reference_solver] if args.reference_solver else []):
-        check_choice("solver", s, SOLVERS)
-    progress = None if (args.quiet or args.json) else (lambda s: print(s, file=sys.stderr, flush=True))
-    result = run_bench(args.cases, tuple(args.solvers), tuple(args.rtols), args.reference_solver, args.reference_rtol,
-                       args.repeats, progress)  # fmt: skip
-    if args.out:
-        with open(args.out, "w", newline="") as f:
-            w = csv.writer(f)
-            quantities = sorted({q for r in result["rows"] for q in r["errors"]})
-            w.writerow(list(COLUMNS) + ["num_rejected"] + [f"err_{q}" for q in quantities])
-            for r, t in zip(result["rows"], _table_rows(result)):
-                w.writerow([t[c] for c in COLUMNS] + [r["num_rejected"]]
-                           + [r["errors"].get(q, "") for q in quantities])  # fmt: skip
-    if args.json:
-        print(json.dumps(_json_safe(result)))
-    else:
-        print(format_table(result))
-    return 0

@@ -10,5 +10,6 @@
 
 from jaxcable.throw.rocket import PointRocket, paper_rocket
 from jaxcable.throw.scene import CALIBRATION, Launch, LineThrowingScene, line_throwing_scene, with_angle
+from jaxcable.throw import bench_cases  # noqa: F401  (registers the bench case)
 
 __all__ = ["CALIBRATION", "Launch", "LineThrowingScene", "PointRocket", "line_throwing_scene", "paper_rocket", "with_angle"]

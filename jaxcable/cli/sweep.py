@@ -1,0 +1,159 @@
+"""quasi-Monte Carlo robustness sweep of the arresting-cable landing (paper section IV)
+
+``jaxcable sweep``: run (or resume) :func:`jaxcable.arresting.sweep.run_qmc_sweep` and report its
+summary (Tables 6, 7, 9; Table 5 for two-phase sweeps), optionally with the plots of Figs 15-21
+(:mod:`jaxcable.arresting.sweep_plots`). Exit status 0 when every case ran (whatever the success
+rate), 1 when some failed numerically, 2 on bad arguments.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import jax
+import numpy as np
+
+from jaxcable.arresting.passive import DEFAULT_CABLE_DAMPING_S
+from jaxcable.arresting.sweep import SWEEP_FIDELITIES, qmc_case_fn, run_qmc_sweep, summarize_sweep, summary_markdown
+from jaxcable.arresting.sweep_plots import plot_histories, plot_landing_plane, plot_tracking
+from jaxcable.arresting.uncertainty import PHASES, SCENARIOS, halton_samples, scenario_settings
+from jaxcable.cli.report import Report, emit, positive
+from jaxcable.core.config import enable_x64
+from jaxcable.core.simulate import SOLVERS
+from jaxcable.studies.sweep import run_histories
+
+__all__ = ["DESCRIPTION", "HELP", "add_arguments", "run", "sweep_main"]
+
+HELP = "quasi-Monte Carlo robustness sweep"
+DESCRIPTION = __doc__.split("\n\n")[0]
+
+
+def positive_int(flag: str):
+    """Argument type: an integer > 0, refused naming ``flag`` (exit status 2)."""
+
+    def parse(text: str) -> int:
+        value = int(text)
+        if value <= 0:
+            raise argparse.ArgumentTypeError(f"{flag} must be a positive integer, got {text}")
+        return value
+
+    return parse
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The flags of ``jaxcable sweep``."""
+    p = parser
+    p.add_argument("--scenario", choices=SCENARIOS, default="I", help="wind scenario of Table 4 (default I)")
+    p.add_argument("--n", type=positive_int("--n"), default=100, help="number of Halton cases (default 100, as the paper)")
+    p.add_argument("--phase", choices=PHASES, default="passive", help="passive: from capture (Table 8 states); full: two-phase, tracking from the terminal-guidance point (Table 3 states), capture, passive phase at --fidelity")
+    p.add_argument(
+        "--fidelity",
+        choices=SWEEP_FIDELITIES,
+        default="rigid",
+        help="model level (default rigid, for cost: ~0.1 s per 2 s case once compiled, ale ~1 min)",
+    )
+    p.add_argument("--out", default="sweep.csv", help="CSV of one row per case; resumed if it exists (default sweep.csv)")
+    p.add_argument("--seed", type=int, default=0, help="Halton scrambling seed (default 0)")
+    p.add_argument("--batch-size", type=positive_int("--batch-size"), default=32, help="cases per compiled call (default 32)")
+    p.add_argument("--t-end", type=positive("--t-end"), default=2.0, help="time simulated after capture [s] (default 2)")
+    p.add_argument("--solver", choices=sorted(SOLVERS), default=None, help="diffrax solver (default per level)")
+    p.add_argument("--rtol", type=positive("--rtol"), default=None, help="relative = absolute tolerance (default per level)")
+    p.add_argument("--max-steps", type=positive_int("--max-steps"), default=None, help="solver step budget per case (default per level)")
+    p.add_argument("--cable-damping", type=float, default=DEFAULT_CABLE_DAMPING_S, help=f"cables' stiffness-proportional damping beta [s] (default {DEFAULT_CABLE_DAMPING_S:g}; the paper gives none, a_max depends on it)")
+    p.add_argument("--plot", metavar="PREFIX", help="write PREFIX_plane.png (Fig 21), PREFIX_histories.png (Figs 18-20) and, with --phase full, PREFIX_tracking.png (Figs 15-17)")
+    p.add_argument("--plot-cases", type=positive_int("--plot-cases"), default=32, help="cases in the histories and tracking plots (default 32)")
+    p.add_argument("--process-index", type=int, default=None, help="this host's index in a multi-host sweep (default: jax.process_index())")
+    p.add_argument("--process-count", type=int, default=None, help="hosts in a multi-host sweep (default: jax.process_count())")
+    p.add_argument(
+        "--distributed",
+        action="store_true",
+        help="call jax.distributed.initialize() first (multi-host; arguments auto-detected on Slurm, Open MPI, TPU)",
+    )
+    p.add_argument(
+        "--coordinator",
+        metavar="HOST:PORT",
+        help="with --distributed off a managed cluster: the coordinator address (with --process-index/--process-count)",
+    )
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--json", action="store_true", help="print one JSON object (the summary)")
+
+
+def _start_distributed(args) -> None:
+    try:
+        if args.coordinator:
+            jax.distributed.initialize(args.coordinator, num_processes=args.process_count, process_id=args.process_index)
+        else:
+            jax.distributed.initialize()
+    except RuntimeError as err:
+        # jax.distributed must start before JAX creates its backend; an import that builds an
+        # array at import time (a default argument, a module constant) already did.
+        raise ValueError(
+            f"jax.distributed.initialize() failed: {err}\n"
+            "Run each host with --process-index I --process-count N instead (the same slices, "
+            "without jax.distributed)."
+        ) from err
+
+
+def run(args: argparse.Namespace) -> Report:
+    """Run (or resume) the sweep of ``args``: the summary (data), its markdown (text); ``ok`` False
+    when some case failed numerically."""
+    enable_x64()
+    if args.distributed:
+        _start_distributed(args)
+    p_index = jax.process_index() if args.process_index is None else args.process_index
+    p_count = jax.process_count() if args.process_count is None else args.process_count
+    out = args.out
+    if p_count > 1:
+        # one file per process (hosts may share a file system): results.p0of4.csv, ...
+        path = Path(out)
+        out = str(path.with_name(f"{path.stem}.p{p_index}of{p_count}{path.suffix}"))
+    case_kwargs = dict(
+        t_end_s=args.t_end, solver=args.solver, rtol=args.rtol, max_steps=args.max_steps, cable_damping_s=args.cable_damping
+    )
+    table = run_qmc_sweep(
+        args.scenario,
+        args.n,
+        phase=args.phase,
+        fidelity=args.fidelity,
+        out=out,
+        seed=args.seed,
+        batch_size=args.batch_size,
+        process_index=p_index,
+        process_count=p_count,
+        progress=not (args.no_progress or args.json),
+        **case_kwargs,
+    )
+    summary = summarize_sweep(table)
+    summary.update(
+        scenario=args.scenario,
+        phase=args.phase,
+        fidelity=args.fidelity,
+        seed=args.seed,
+        out=out,
+        process_index=p_index,
+        process_count=p_count,
+    )
+    summary["wind_applied"] = True
+    title = f"scenario {args.scenario}, {args.phase} phase, fidelity {args.fidelity}"
+    if args.plot:
+        summary["plots"] = [plot_landing_plane(table, f"{args.plot}_plane.png", f"{title}, {summary['n_cases']} cases")]
+        # the histories are recomputed for the first --plot-cases cases, from the sweep's own case function
+        case_fn = qmc_case_fn(args.scenario, args.phase, args.fidelity, args.seed, **case_kwargs)
+        samples = halton_samples(args.n, args.scenario, args.phase, args.seed)
+        k = min(args.plot_cases, len(table["case"]))
+        hist = run_histories(case_fn, samples, np.asarray(table["case"][:k], int))
+        if args.phase == "full":
+            t_c = scenario_settings(args.scenario)["t_c_s"]
+            summary["plots"].append(plot_tracking(hist, f"{args.plot}_tracking.png", f"{title}: tracking phase, first {k} cases", t_c))
+        summary["plots"].append(plot_histories(hist, f"{args.plot}_histories.png", f"{title}: passive phase, first {k} cases"))
+    lines = [summary_markdown(summary, title), f"rows in {out}"]
+    lines += [f"plot written to {path}" for path in summary.get("plots", [])]
+    return Report(summary, "\n".join(lines), ok=not summary["n_failed"])
+
+
+def sweep_main(argv: list[str] | None = None) -> int:
+    """``jaxcable sweep`` on its own: parse ``argv``, run, print (exit status as :func:`run`'s report)."""
+    parser = argparse.ArgumentParser(prog="jaxcable sweep", description=DESCRIPTION)
+    add_arguments(parser)
+    return emit("sweep", run, parser.parse_args(argv))
