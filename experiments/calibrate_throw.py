@@ -5,20 +5,19 @@ area d*l with d = 10 mm assumed), and rope linear density (see README "Physical 
 0.43 kg/m cannot reach the measured 199.5 m/s in any model where the deployed rope moves with the
 rocket, so it is treated as unknown). Momentum flux of the rope pulled from rest is on (physics).
 
-Writes experiments/results/calibration.json and calibration.png. Usage:
-    python experiments/calibrate_throw.py [--steps 20] [--segment-length 2]
+Writes experiments/results/calibration.json and calibration.png (machine, JAX version, precision).
+Usage:
+    python experiments/calibrate_throw.py [--steps 20] [--segment-length 2] [--out DIR]
 """
 
 import argparse
-import json
-import platform
 import time
 
-import jax
+import _report
 import numpy as np
 
 import jaxcable
-from jaxcable import calibration as C
+from jaxcable.throw import calibration as C
 from jaxcable.throw import line_throwing_scene
 
 p = argparse.ArgumentParser()
@@ -26,10 +25,12 @@ p.add_argument("--steps", type=int, default=20)
 p.add_argument("--segment-length", type=float, default=2.0)
 p.add_argument("--lr", type=float, default=0.08)
 p.add_argument("--init", type=float, nargs=3, default=[0.5, 0.025, 0.06], metavar=("CD_ROCKET", "CD_ROPE", "RHO"))
-p.add_argument("--out", default="experiments/results/calibration.json")
+p.add_argument("--out", help="report folder (default experiments/results)")
 args = p.parse_args()
 
 jaxcable.enable_x64()
+out_dir = _report.output_dir(args.out)
+report_data = _report.start(precision=_report.precision())
 sim_kw = dict(t1=40.0, solver="tsit5", rtol=1e-5, atol=1e-5)
 scene = line_throwing_scene(
     30.0,
@@ -81,6 +82,7 @@ evals = [evaluate(args.segment_length)]
 if args.segment_length != 1.0:
     evals.append(evaluate(1.0))
 out = {
+    **report_data,
     "fitted": dict(zip(names, values)),
     "assumed": {"rope_diameter_m": 0.01, "pullout": "momentum_flux", "drag_form": "standard"},
     "fit_segment_length_m": args.segment_length,
@@ -88,14 +90,10 @@ out = {
     "value_history": hist.values,
     "fit_wall_s": fit_wall,
     "evaluations": evals,
-    "machine": f"{platform.processor() or platform.machine()}, {jax.device_count()} {jax.devices()[0].platform} device(s)",
-    "jax": jax.__version__,
-    "precision": "float64",
     "solver": sim_kw,
 }
-with open(args.out, "w") as f:
-    json.dump(out, f, indent=2)
-print(json.dumps(evals, indent=1))
+_report.finish(out, out_dir, "calibration")
+print(evals)
 
 import matplotlib
 
@@ -115,4 +113,4 @@ ax[1].set_xticks(range(7), ["range", "v_max", "T", "v(1s)", "v(2s)", "v(3s)", "v
 ax[1].set_ylabel("model / test - 1 [%]")
 ax[1].legend()
 fig.tight_layout()
-fig.savefig(args.out.replace(".json", ".png"), dpi=110)
+fig.savefig(out_dir / "calibration.png", dpi=110)

@@ -18,11 +18,9 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import time
-from pathlib import Path
 
-import jax
+import _report
 import jax.numpy as jnp
 import numpy as np
 
@@ -37,9 +35,8 @@ from jaxcable.throw.design import (
     throw_problem,
     throw_report,
 )
-from jaxcable.core.provenance import machine_info
 
-ROOT = Path(__file__).resolve().parent.parent
+STEM = "design_throw"
 
 
 def parse():
@@ -52,17 +49,16 @@ def parse():
     p.add_argument("--grid", type=int, nargs=2, default=(9, 7), metavar=("N_ANGLE", "N_DIAMETER"))
     p.add_argument("--quick", action="store_true", help="4 steps, 8 evaluations, 3x3 grid, experiments/out/")
     p.add_argument("--replot", action="store_true")
-    p.add_argument("--out", default=None)
+    p.add_argument("--out", help="report folder (default experiments/results; --quick: experiments/out)")
     a = p.parse_args()
     if a.quick:
         a.steps, a.nm_evals, a.grid = 4, 8, (3, 3)
-    if a.out is None:
-        a.out = str(ROOT / ("experiments/out" if a.quick else "experiments/results") / "design_throw.json")
     return a
 
 
 def run(args):
     jaxcable.enable_x64()
+    report = _report.start(precision=_report.precision())
     problem = throw_problem("angle_deg,rope_diameter_m", segment_length_m=args.segment_length)
     x0 = calibrated_start(problem)
     u0 = problem.space.to_unconstrained(x0)
@@ -141,10 +137,7 @@ def run(args):
         comparison=comparison,
         designs=designs,
         grid=dict(angle_deg=angles.tolist(), diameter_m=diameters.tolist(), **{k: v.tolist() for k, v in grid.items()}),
-        machine=machine_info(),
-        load_average=os.getloadavg(),
-        jax=jax.__version__,
-        precision="float64",
+        **report,
     )
 
 
@@ -153,8 +146,7 @@ def write_md(res, path):
     lines = [
         "# Line-throwing launch design: adam vs Nelder-Mead",
         "",
-        f"`python experiments/design_throw.py` ({res['machine'] if isinstance(res['machine'], str) else json.dumps(res['machine'])}; "
-        f"load average {', '.join(f'{x:.1f}' for x in res['load_average'])}; JAX {res['jax']}, {res['precision']}).",
+        *_report.header(res),
         "",
         f"Maximise the range over {', '.join(pr['variables'])} (bounds {pr['bounds']}) with the landing speed "
         f"<= {pr['limits']['landing_speed_mps']:g} m/s and the rope's pull on the rocket <= {pr['limits']['max_tension_N']:g} N "
@@ -195,9 +187,8 @@ def write_md(res, path):
         "solve); a Nelder-Mead evaluation is the objective alone. Wall times exclude compiling.",
         "",
         "![design_throw](design_throw.png)",
-        "",
     ]
-    Path(path).write_text("\n".join(lines))
+    _report.write_lines(path, lines)
 
 
 def plot(res, path):
@@ -245,16 +236,15 @@ def plot(res, path):
 
 def main():
     args = parse()
-    out = Path(args.out)
+    out = _report.output_dir(args.out, quick=args.quick)
     if args.replot:
-        res = json.loads(out.read_text())
+        res = json.loads((out / f"{STEM}.json").read_text())
+        write_md(res, out / f"{STEM}.md")
     else:
         res = run(args)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(json.dumps(res, indent=1))
-    write_md(res, out.with_suffix(".md"))
-    plot(res, out.with_suffix(".png"))
-    print(out.with_suffix(".md").read_text())
+        _report.finish(res, out, STEM, write_md)
+    plot(res, out / f"{STEM}.png")
+    print((out / f"{STEM}.md").read_text())
 
 
 if __name__ == "__main__":

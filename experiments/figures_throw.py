@@ -25,19 +25,16 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import time
-from pathlib import Path
 
+import _report
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 import jaxcable
-from jaxcable.core.provenance import machine_info
 from jaxcable.throw import line_throwing_scene, with_angle
 
-ROOT = Path(__file__).resolve().parent.parent
 ANGLES_DEG = (25.0, 35.0, 45.0, 55.0, 65.0)
 # Instants of the rope shapes in Fig 6 [s]; those after ground impact are dropped (the solver saves inf).
 SNAPSHOT_TS = (0.25, 0.43, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 12.0)
@@ -247,8 +244,8 @@ def main():
     args = parse_args()
     jaxcable.enable_x64()
     seg = 5.0 if args.quick else args.segment_length
-    out = Path(args.out) if args.out else ROOT / ("experiments/out/figures_quick" if args.quick else "experiments/results")
-    out.mkdir(parents=True, exist_ok=True)
+    out = _report.output_dir(args.out, quick=args.quick, sub="figures_quick")
+    data = _report.start()
     angles_deg = [float(a) for a in args.angles]
 
     scene = line_throwing_scene(45.0, segment_length_m=seg, rope_length_m=args.rope_length)
@@ -273,7 +270,6 @@ def main():
     burn_time = float(scene.rocket.burn_time_s)
     paths = make_figures(flights, angles_deg, out, subtitle, burn_time)
 
-    meta = machine_info()
     settings = {
         "segment_length_m": seg,
         "rope_length_m": args.rope_length,
@@ -287,13 +283,14 @@ def main():
     header = [
         "Lu et al. 2016 Figs 3-7: line-throwing rocket flights, calibrated defaults (jaxcable.throw.CALIBRATION)",
         ", ".join(f"{k}={v}" for k, v in settings.items()),
-        ", ".join(f"{k}={v}" for k, v in meta.items()),
+        _report.machine_line(data["machine"]),
+        f"run {data['date']} by `{data['command']}`, load average at the start {data['load_start']}",
         ", ".join(f"{k}={v:.2f}" for k, v in timing.items()),
         "units: angle deg, lengths m, speeds m/s, time s",
     ]
     write_csv(out / "fig3_7_summary.csv", rows, header)
-    with open(out / "fig3_7_run.json", "w") as f:
-        json.dump({"settings": settings, "machine": meta, "wall_s": timing, "flights": rows}, f, indent=2)
+    data.update(settings=settings, wall_s=timing, flights=rows, load_end=_report.load_average())
+    _report.write_json(out / "fig3_7_run.json", data)
 
     warn = [r for r in rows if r["status"] != "event_occurred"]
     ran_out = [r for r in rows if r["deployed_rope_m"] >= args.rope_length - seg]
