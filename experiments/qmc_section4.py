@@ -25,7 +25,7 @@ import argparse
 from pathlib import Path
 
 import numpy as np
-from _report import ROOT, finish, header, output_dir, start
+from _report import finish, header, output_dir, start, write_lines
 
 import jaxcable
 from jaxcable.arresting.passive import DEFAULT_CABLE_DAMPING_S
@@ -53,8 +53,7 @@ def main(argv=None):
     args = parse_args(argv)
     jaxcable.enable_x64()
     out = output_dir(args.out)
-    rows_dir = ROOT / "experiments" / "out" / STEM
-    rows_dir.mkdir(parents=True, exist_ok=True)
+    rows_dir = output_dir(quick=True, sub=STEM)  # the sweeps' rows, resumed by a rerun (git-ignored)
     data = start(n=args.n, seed=args.seed, cable_damping_s=args.cable_damping, fidelity="rigid", scenarios={})
     case_kwargs = dict(cable_damping_s=args.cable_damping)
     tag = f"n{args.n}_seed{args.seed}_beta{args.cable_damping:g}"
@@ -152,8 +151,8 @@ def write_md(data, path):
     lines += ["", "## Figures", ""]
     for s, r in sc.items():
         lines += [f"- scenario {s}: " + ", ".join(f"`{Path(p).name}`" for p in r["plots"])]
-    lines += [f"- Fig 21 like (3 scenarios' passive sweeps): `{Path(data['plane_plot']).name}`", ""]
-    Path(path).write_text("\n".join(lines))
+    lines += [f"- Fig 21 like (3 scenarios' passive sweeps): `{Path(data['plane_plot']).name}`"]
+    write_lines(path, lines)
 
 
 if __name__ == "__main__":
