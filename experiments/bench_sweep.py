@@ -1,6 +1,6 @@
 """Benchmark of the quasi-Monte Carlo sweep (arresting-cable paper, section IV; not a test).
 
-Throughput of :func:`jaxcable.studies.sweep.run_qmc_sweep` (passive phase, Table 8 ranges) on this CPU:
+Throughput of :func:`jaxcable.arresting.sweep.run_qmc_sweep` (passive phase, Table 8 ranges) on this CPU:
 
 (1) ``rigid`` level, the sweep's defaults (t_end 2 s, 1 ms saved samples), batch sizes 1, 8, 32, 128,
     on 1 device and on 2 CPU devices (``XLA_FLAGS=--xla_force_host_platform_device_count=2``, one per

@@ -1,4 +1,4 @@
-"""Benchmark of the full two-phase landing per fidelity level (issue 4; not a test).
+"""Benchmark of the full two-phase landing per fidelity level (not a test).
 
 The deviated case of section IV.A in scenario I (``run_two_phase`` defaults: x = y = 13 m, tilt 5 deg,
 wind 90 deg, 10% gust, tau = 0.1 s, sigma_r = 0.1 m), phase 2 at each level ``rigid``, ``ale``,

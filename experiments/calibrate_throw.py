@@ -1,8 +1,8 @@
 """Calibrate the line-throwing rocket's three unknown scalars to the 30 deg flight test with optax.
 
 Fitted (log space, so they stay positive): rocket drag coefficient, rope drag coefficient (on the
-area d*l with d = 10 mm assumed), and rope linear density (see README "Physical sanity": the printed
-0.43 kg/m cannot reach the measured 199.5 m/s in any model where the deployed rope moves with the
+area d*l with d = 10 mm assumed), and rope linear density (see docs/throw.md, "Physical sanity": the
+printed 0.43 kg/m cannot reach the measured 199.5 m/s in any model where the deployed rope moves with the
 rocket, so it is treated as unknown). Momentum flux of the rope pulled from rest is on (physics).
 
 Writes experiments/results/calibration.json and calibration.png (machine, JAX version, precision).

@@ -10,7 +10,7 @@ For each wind scenario (I, II, III; Table 4) it runs
 * the **passive sweep** (``phase="passive"``): ``--n`` Halton captures over Table 8's ranges.
   Table 9 (criteria), and Fig 21 over the 3 x n captures of the three scenarios.
 
-Everything goes through the public API (:func:`jaxcable.studies.sweep.run_qmc_sweep`, ``qmc_case_fn``,
+Everything goes through the public API (:func:`jaxcable.arresting.sweep.run_qmc_sweep`, ``qmc_case_fn``,
 ``run_histories``, ``summarize_sweep`` and the plot functions). Rows are kept in
 ``experiments/out/qmc_section4/`` (a rerun resumes them); the report goes to
 ``experiments/results/qmc_section4.{json,md}`` with the PNGs beside it.

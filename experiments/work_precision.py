@@ -1,7 +1,7 @@
 """Work-precision study of the shipped scenes ("speed against error"; not a test).
 
-For each scene configuration (a :class:`jaxcable.studies.bench.BenchCase`) a reference is run with Dopri8
-at rtol = atol = 1e-10 in float64; every other run (solver x tolerance, atol = rtol) is compared
+For each scene configuration (a bench case, :func:`jaxcable.studies.bench.make_bench_case`) a
+reference is run with Dopri8 at rtol = atol = 1e-10 in float64; every other run (solver x tolerance, atol = rtol) is compared
 with it in the quantities users read (relative errors):
 
 * line-throwing flight (30 deg, to ground impact): range, max speed, flight time; segment lengths

@@ -1,4 +1,4 @@
-"""Peer comparison (issue 6): a cable pinned at both ends, dropped from straight under gravity, in
+"""Peer comparison: a cable pinned at both ends, dropped from straight under gravity, in
 Exudyn (PyPI ``exudyn``: 2D ANCF cable elements, ``ObjectANCFCable2D``) against jaxcable's ALE cable
 (arresting-cable paper, section III.B.1, eqs 26-31; :mod:`jaxcable.components.ale`, every material
 coordinate fixed: a Lagrangian cable of linear elements with consistent mass).

@@ -1,4 +1,4 @@
-"""Peer comparison (issue 6): a hanging line pinned at both ends in MoorDyn (lumped-mass mooring
+"""Peer comparison: a hanging line pinned at both ends in MoorDyn (lumped-mass mooring
 code, PyPI ``moordyn``) against jaxcable's ALE cable (arresting-cable paper, section III.B.1, eqs
 26-31; :mod:`jaxcable.components.ale` with every material coordinate fixed: a Lagrangian cable).
 

@@ -1,4 +1,4 @@
-"""Peer comparison (issue 6): an n-link planar pendulum chain in PyDy / sympy.physics.mechanics
+"""Peer comparison: an n-link planar pendulum chain in PyDy / sympy.physics.mechanics
 ``KanesMethod`` (integrated with scipy) against jaxcable's finite-segment rope (line-throwing paper,
 section 3: the Kane chain of rigid links with point masses at their far ends), without payout.
 
@@ -27,7 +27,7 @@ What the public API cannot express: a *pinned* top. Node 0 of the chain is alway
 free point mass. We emulate the pin with a rocket of ``PIN_MASS_KG`` = 1e30 kg whose weight is
 cancelled by a two-line force component (``PinWeightCancel`` below); the rope then moves it by
 ``|T| / 1e30 ~ 1e-29 m/s^2``, far below any tolerance. A ``pinned`` option for node 0 (a
-prescribed anchor) would make this exact; see the README.
+prescribed anchor) would make this exact; see README.md beside this script.
 
 Measured: the tip position and every link angle at 41 matching times, max difference over time; both
 codes at the same ``rtol = atol`` (the integration tolerance), plus the PyDy run repeated 100x tighter
