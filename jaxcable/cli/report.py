@@ -1,9 +1,12 @@
 """The one report printer of the command line: every command returns a :class:`Report`, printed as
 one JSON object (``--json``) or as text; bad input is a ``ValueError`` naming the flag or field,
-printed as ``jaxcable COMMAND: error: MESSAGE`` with exit status 2."""
+printed as ``jaxcable COMMAND: error: MESSAGE`` with exit status 2 (the status and form argparse
+gives a flag it cannot parse). The argument types shared by the commands live here too, so that a
+bad value is refused by argparse with the flag named."""
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import json
 import sys
@@ -31,3 +34,27 @@ def emit(command: str, run, args) -> int:
     elif report.text:
         print(report.text)
     return 0 if report.ok else 1
+
+
+def positive(flag: str):
+    """Argument type: a float > 0, refused naming ``flag`` (exit status 2)."""
+
+    def parse(text: str) -> float:
+        value = float(text)
+        if not value > 0:
+            raise argparse.ArgumentTypeError(f"{flag} must be positive, got {text}")
+        return value
+
+    return parse
+
+
+def in_open_interval(flag: str, lower: float, upper: float, unit: str = ""):
+    """Argument type: a float in ``(lower, upper)``, refused naming ``flag`` (exit status 2)."""
+
+    def parse(text: str) -> float:
+        value = float(text)
+        if not lower < value < upper:
+            raise argparse.ArgumentTypeError(f"{flag} must be in ({lower:g}, {upper:g}){unit}, got {text}")
+        return value
+
+    return parse
