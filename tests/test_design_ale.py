@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from jaxcable.arresting.landing import run_landing
-from jaxcable.arresting.design import CRITERIA, DesignProblem, _buffer, design_problem, objective_and_grad, objective_value, paper_start
+from jaxcable.arresting.design import CRITERIA, DesignProblem, design_buffer, design_problem, objective_and_grad, objective_value, paper_start
 
 T_END = 0.05  # s: the hooks' impact on the cables and the counterweights' start (~600 steps)
 
@@ -28,7 +28,7 @@ def test_ale_batch_matches_independent_landings(problem):
     assert np.all(np.asarray(aux["status"]) == 0)
     for j in range(problem.n_cases):
         capture = jax.tree_util.tree_map(lambda v: v[j], problem.captures)
-        ref = run_landing("ale", capture, buffer=_buffer(problem, x), t_end_s=T_END)
+        ref = run_landing("ale", capture, buffer=design_buffer(problem, x), t_end_s=T_END)
         for key in CRITERIA:
             # the design's solve uses the checkpointed loop, run_landing the plain one: the same
             # solver and tolerance (Bosh3, 1e-4), different round-off, so a step or two may differ
@@ -67,7 +67,8 @@ def test_ale_cases_report_whether_the_contact_derivative_is_exact(problem):
     import dataclasses
     import warnings
 
-    from jaxcable.arresting.design import _Rows, _record
+    from jaxcable.arresting.design import history_record
+    from jaxcable.studies.optimise import HistoryRows
 
     x = paper_start(problem)
     u = problem.space.to_unconstrained(x)
@@ -77,7 +78,7 @@ def test_ale_cases_report_whether_the_contact_derivative_is_exact(problem):
     few = dataclasses.replace(problem, scenes=dataclasses.replace(problem.scenes, cables=cables))
     _, aux_few = objective_value(few, u)
     assert not np.any(np.asarray(aux_few["contact_tangent_exact"]))
-    rows = _Rows(_record(problem), problem.criteria_names)
+    rows = HistoryRows(history_record(problem), problem.criteria_names)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         rows.add(1.0, 0.0, aux)  # exact: no warning

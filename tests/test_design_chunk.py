@@ -8,7 +8,9 @@ import diffrax
 import numpy as np
 import pytest
 
-from jaxcable.arresting.design import AUTO_CHUNK, _chunk_size, design_problem, objective_and_grad, objective_value, paper_start
+from jaxcable.arresting.design import design_problem, objective_and_grad, objective_value, paper_start
+from jaxcable.cli.design import design_main
+from jaxcable.studies.batching import AUTO_CHUNK, chunk_size
 
 # 5 cases in chunks of 2: three chunks, the last padded with one copy of case 5
 SETTINGS = dict(n=5, t_end_s=0.6, rtol=1e-8, atol=1e-8)
@@ -40,11 +42,11 @@ def test_chunked_batch_equals_the_whole_batch():
 def test_auto_chunk_sizes():
     p = design_problem("m_w,F_f", n=2, t_end_s=0.2)
     assert p.chunk == "auto"
-    assert _chunk_size(p, None) == AUTO_CHUNK["forward"] == 32  # the CPU sizes (tests run on the CPU)
-    assert _chunk_size(p, diffrax.ForwardMode()) == AUTO_CHUNK["forward_mode"] == 16
-    assert _chunk_size(p, diffrax.RecursiveCheckpointAdjoint()) == AUTO_CHUNK["reverse_mode"] == 32
-    assert _chunk_size(dataclasses.replace(p, chunk=None), None) is None
-    assert _chunk_size(dataclasses.replace(p, chunk=3), diffrax.ForwardMode()) == 3
+    assert chunk_size(p.chunk, None) == AUTO_CHUNK["forward"] == 32  # the CPU sizes (tests run on the CPU)
+    assert chunk_size(p.chunk, diffrax.ForwardMode()) == AUTO_CHUNK["forward_mode"] == 16
+    assert chunk_size(p.chunk, diffrax.RecursiveCheckpointAdjoint()) == AUTO_CHUNK["reverse_mode"] == 32
+    assert chunk_size(dataclasses.replace(p, chunk=None).chunk, None) is None
+    assert chunk_size(dataclasses.replace(p, chunk=3).chunk, diffrax.ForwardMode()) == 3
 
 
 @pytest.mark.parametrize("bad", [0, -2, 2.5, True, "big"])
@@ -55,7 +57,5 @@ def test_bad_chunk_is_refused(bad):
 
 @pytest.mark.parametrize("text", ["0", "-3", "lots"])
 def test_cli_bad_chunk_is_refused(text, capsys):
-    from jaxcable.arresting.design import design_main
-
     assert design_main(["--n", "2", "--steps", "0", "--chunk", text]) == 2
     assert "chunk" in capsys.readouterr().err

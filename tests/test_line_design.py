@@ -13,7 +13,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxcable.arresting.design import design_main
+from jaxcable.cli.design import design_main
 from jaxcable.throw.design import (
     ThrowLimits,
     ThrowWeights,

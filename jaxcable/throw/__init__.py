@@ -10,6 +10,7 @@
 
 from jaxcable.throw.rocket import PointRocket, paper_rocket
 from jaxcable.throw.scene import CALIBRATION, Launch, LineThrowingScene, line_throwing_scene, with_angle
+from jaxcable.throw import design  # noqa: F401  (registers the "throw" design problem)
 from jaxcable.throw import bench_cases  # noqa: F401  (registers the bench case)
 
 __all__ = ["CALIBRATION", "Launch", "LineThrowingScene", "PointRocket", "line_throwing_scene", "paper_rocket", "with_angle"]

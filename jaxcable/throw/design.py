@@ -4,11 +4,13 @@ Line-throwing paper (Lu et al. 2016), section 4: the range grows with the launch
 optimum (about 35 deg with the calibrated model) and then falls, while "with the angle increases,
 the time of the rocket flying in the air increases, and landing velocity of the rocket also
 increased". A rocket that must land its line on a ship's deck without harm has a landing-speed
-limit, so the longest admissible throw is a trade-off. This module poses it on the machinery of
-:mod:`jaxcable.arresting.design` (the scaled-logistic :class:`~jaxcable.arresting.design.DesignSpace`, the optax loop
-:func:`~jaxcable.arresting.design.optax_minimise` and the Nelder-Mead baseline
-:func:`~jaxcable.arresting.design.nelder_mead_minimise`) with gradients through the diffrax solve and the
-differentiable impact event.
+limit, so the longest admissible throw is a trade-off. This module poses it on the system-agnostic
+kit of :mod:`jaxcable.studies.optimise` (the scaled-logistic
+:class:`~jaxcable.studies.optimise.DesignSpace`, the optax loop
+:func:`~jaxcable.studies.optimise.optax_minimise` and the Nelder-Mead baseline
+:func:`~jaxcable.studies.optimise.nelder_mead_minimise`) with gradients through the diffrax solve and
+the differentiable impact event; the problem is registered as ``"throw"`` for ``jaxcable design
+--scene throw``.
 
 Design variables (``THROW_VARIABLES``; choose any subset):
 
@@ -64,8 +66,17 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxcable.core.validation import check_choice, check_positive
-from jaxcable.arresting.design import DesignSpace, _float_array, nelder_mead_minimise, optax_minimise, value_and_grad_by_mode
+from jaxcable.core.simulate import simulate
+from jaxcable.core.validation import check_choice, check_positive, float_array
+from jaxcable.studies.optimise import (
+    GRADIENT_MODES,
+    DesignEntry,
+    DesignSpace,
+    nelder_mead_minimise,
+    optax_minimise,
+    value_and_grad_by_mode,
+)
+from jaxcable.studies.registry import register_design_problem
 from jaxcable.throw.scene import LineThrowingScene, line_throwing_scene
 
 __all__ = [
@@ -84,6 +95,7 @@ __all__ = [
     "throw_objective_value",
     "throw_outputs",
     "throw_problem",
+    "throw_record",
     "throw_report",
 ]
 
@@ -102,18 +114,16 @@ THROW_BOUNDS = {
 """Default bounds ``(lower, upper)`` per variable."""
 
 THROW_CRITERIA = ("range_m", "impact_speed_mps", "max_tension_N")
-"""Columns of the histories' record (:attr:`DesignHistory.worst_hard`): the range [m], the landing
+"""Columns of the histories' record (:attr:`~jaxcable.studies.optimise.DesignHistory.worst_hard`): the range [m], the landing
 speed [m/s] and the largest rope pull on the rocket [N] (hard values)."""
-
-GRADIENT_MODES = ("forward", "reverse")
 
 
 class ThrowLimits(eqx.Module):
     """The admissible landing speed and rope pull (illustrative defaults: module docstring)."""
 
-    landing_speed_mps: jax.Array = eqx.field(converter=_float_array, default=60.0)
+    landing_speed_mps: jax.Array = eqx.field(converter=float_array, default=60.0)
     """largest admissible speed at ground impact [m/s], shape ()"""
-    max_tension_N: jax.Array = eqx.field(converter=_float_array, default=4000.0)
+    max_tension_N: jax.Array = eqx.field(converter=float_array, default=4000.0)
     """largest admissible pull of the rope on the rocket [N], shape ()"""
 
     def __check_init__(self):
@@ -124,18 +134,18 @@ class ThrowLimits(eqx.Module):
 class ThrowWeights(eqx.Module):
     """Weights and widths of the objective (module docstring). Arrays: sweepable."""
 
-    range_reference_m: jax.Array = eqx.field(converter=_float_array, default=600.0)
+    range_reference_m: jax.Array = eqx.field(converter=float_array, default=600.0)
     """the range that counts as 1 in the objective [m] (the calibrated 30 deg range), shape ()"""
-    speed_penalty: jax.Array = eqx.field(converter=_float_array, default=100.0)
+    speed_penalty: jax.Array = eqx.field(converter=float_array, default=100.0)
     """weight of the squared landing-speed violation [-], shape (): 100 makes a 10 % excess cost
     as much as 100 % of the reference range; the range's pull still pushes the optimum 0.7-1.5 %
     past the penalty's onset (measured, margin 0: 60.4-60.9 m/s for a 60 m/s limit), hence ``margin``"""
-    tension_penalty: jax.Array = eqx.field(converter=_float_array, default=100.0)
+    tension_penalty: jax.Array = eqx.field(converter=float_array, default=100.0)
     """weight of the squared rope-pull violation [-], shape (); 0 switches the tension limit off"""
-    margin: jax.Array = eqx.field(converter=_float_array, default=0.02)
+    margin: jax.Array = eqx.field(converter=float_array, default=0.02)
     """fractional margin the penalties demand below each limit [-], shape (): the penalty starts at
     98 % of a limit, so the penalised optimum (which overshoots the onset by ~1 %) meets the limit"""
-    tension_width_N: jax.Array = eqx.field(converter=_float_array, default=10.0)
+    tension_width_N: jax.Array = eqx.field(converter=float_array, default=10.0)
     """width of the soft maximum of the rope pull [N], shape (): its bias is at most
     ``width log(n_saved)`` (~70 N for ~1000 samples of 0.01 s) and measured 5e-6 N at 30 deg / 9 mm
     (the pull's peak is sharp: one sample lies within a width of it)"""
@@ -239,8 +249,6 @@ def throw_outputs(problem: ThrowDesignProblem, x, adjoint=None) -> dict:
     """One flight at design ``x`` (k,): ``range_m``, ``impact_speed_mps``, ``max_tension_N`` (hard)
     and ``smooth_max_tension_N`` (soft maximum), ``flight_time_s``, ``deployed_rope_m``, ``landed``
     (the impact event occurred), ``status`` and ``num_steps``. Pure."""
-    from jaxcable.core.simulate import simulate
-
     res = simulate(
         throw_design_scene(problem, x), problem.t_max_s, solver=problem.solver, rtol=problem.rtol,
         atol=problem.atol, max_steps=problem.max_steps, adjoint=adjoint,
@@ -295,7 +303,9 @@ def throw_objective_and_grad(problem: ThrowDesignProblem, u):
     return value_and_grad_by_mode(lambda u_: throw_objective(problem, u_, adjoint), u, problem.gradient)
 
 
-def _record(problem):
+def throw_record(problem: ThrowDesignProblem):
+    """``aux -> (THROW_CRITERIA values (3,), 1.0 if landed within the limits else 0.0)``: the record
+    an optimiser's history keeps of each evaluation."""
     lim = problem.limits
 
     def record(aux):
@@ -312,11 +322,11 @@ def _record(problem):
 
 def optimise_throw(problem: ThrowDesignProblem, x0, steps: int = 30, learning_rate: float = 0.1, optimizer=None, callback=None):
     """Adam (optax) on the unconstrained variables from ``x0``: a
-    :class:`~jaxcable.arresting.design.DesignHistory` whose ``worst_hard`` columns are ``THROW_CRITERIA`` and
+    :class:`~jaxcable.studies.optimise.DesignHistory` whose ``worst_hard`` columns are ``THROW_CRITERIA`` and
     whose ``success_rate`` is 1 where the flight landed within the limits."""
     return optax_minimise(
         problem.space, lambda u: throw_objective_and_grad(problem, u), x0, steps=steps, optimizer=optimizer,
-        learning_rate=learning_rate, callback=callback, record=_record(problem), criteria_names=THROW_CRITERIA,
+        learning_rate=learning_rate, callback=callback, record=throw_record(problem), criteria_names=THROW_CRITERIA,
     )  # fmt: skip
 
 
@@ -324,7 +334,7 @@ def nelder_mead_throw(problem: ThrowDesignProblem, x0, max_evaluations: int = 60
     """The derivative-free baseline (scipy Nelder-Mead) on the same reparametrisation and objective."""
     return nelder_mead_minimise(
         problem.space, lambda u: throw_objective_value(problem, u), x0, max_evaluations=max_evaluations,
-        initial_step=initial_step, target=target, record=_record(problem), criteria_names=THROW_CRITERIA,
+        initial_step=initial_step, target=target, record=throw_record(problem), criteria_names=THROW_CRITERIA,
     )  # fmt: skip
 
 
@@ -337,5 +347,19 @@ def throw_report(problem: ThrowDesignProblem, aux) -> dict:
         out[k] = float(aux[k])
     out["landed"] = bool(aux["landed"])
     out["num_steps"] = int(aux["num_steps"])
-    out["within_limits"] = bool(_record(problem)(aux)[1])
+    out["within_limits"] = bool(throw_record(problem)(aux)[1])
     return out
+
+
+register_design_problem(
+    "throw",
+    DesignEntry(
+        build=throw_problem,
+        start=calibrated_start,
+        optimise=optimise_throw,
+        report=throw_report,
+        variables=THROW_VARIABLES,
+        default_variables="angle_deg,rope_diameter_m",
+        record=throw_record,
+    ),
+)
