@@ -36,40 +36,55 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from jaxcable.core.validation import check_finite, check_positive
+from jaxcable.core.validation import as_array, check_fields, check_finite, check_positive, check_range, check_real, positive
 
 
 class BufferDevice(eqx.Module):
-    """One buffer device (the paper has four identical ones). Fields are arrays (sweepable)."""
+    """One buffer device (the paper has four identical ones). Fields are arrays (sweepable).
 
-    counterweight_mass_kg: jax.Array = eqx.field(converter=jnp.asarray, default=920.0)
+    Bounds (checked on concrete values), each far outside Table 1 and the design bounds
+    (:data:`jaxcable.arresting.design.DEFAULT_BOUNDS`: m_w 300-5000 kg, F_f 2e5-5e5 N, profile factors
+    0.25-2): ``0 < m_w <= 1e5 kg``, ``0 <= F_f <= 1e7 N`` (above it the cables, which carry
+    ``alpha F_f / 2`` each, would break many times over: 800 MPa on a 20 mm cable is 1e6 N),
+    ``0 < alpha <= 100``, ``0 < width <= 10 m/s`` (half the design descent speed: wider, the brake
+    is no longer a friction brake), profile factors in ``[0, 100]`` and ``0 < travel <= 1000 m``.
+    """
+
+    counterweight_mass_kg: jax.Array = eqx.field(converter=as_array, default=920.0)
     """``m_w``: counterweight mass [kg] (Table 1: 0.92 t)."""
-    brake_force_N: jax.Array = eqx.field(converter=jnp.asarray, default=3.13e5)
+    brake_force_N: jax.Array = eqx.field(converter=as_array, default=3.13e5)
     """``F_f``: sliding friction force of the brake [N] (Table 1: 3.13e5 N)."""
-    transfer_rate: jax.Array = eqx.field(converter=jnp.asarray, default=3.0)
+    transfer_rate: jax.Array = eqx.field(converter=as_array, default=3.0)
     """``alpha``: counterweight travel per unit travel of the moving pulley block [-] (Table 1: 3)."""
-    brake_velocity_width_m_s: jax.Array = eqx.field(converter=jnp.asarray, default=0.05)
+    brake_velocity_width_m_s: jax.Array = eqx.field(converter=as_array, default=0.05)
     """Smoothing width of the stick-slip law ``F_f tanh(w'/width)`` [m/s]."""
-    brake_profile: jax.Array | None = eqx.field(converter=lambda v: None if v is None else jnp.asarray(v), default=None)
+    brake_profile: jax.Array | None = eqx.field(converter=lambda v: None if v is None else as_array(v), default=None)
     """Factors ``phi_k`` [-] (K >= 2,) of the sliding force at K equally spaced knots of the
     counterweight rise over ``[0, brake_profile_travel_m]`` (module docstring); ``None``: constant."""
-    brake_profile_travel_m: jax.Array = eqx.field(converter=jnp.asarray, default=6.0)
+    brake_profile_travel_m: jax.Array = eqx.field(converter=as_array, default=6.0)
     """Counterweight rise [m] of the profile's last knot (default 6 m: the rise at a 10 m drop of the
     central landing is 5.8 m in the 1-DOF model and 5.7 m at the rigid level, Table 1 layout)."""
 
     def __check_init__(self):
-        check_positive("counterweight_mass_kg", self.counterweight_mass_kg)
-        check_positive("brake_force_N", self.brake_force_N, allow_zero=True)
-        check_positive("transfer_rate", self.transfer_rate)
-        check_positive("brake_velocity_width_m_s", self.brake_velocity_width_m_s)
-        check_positive("brake_profile_travel_m", self.brake_profile_travel_m)
+        check_fields(
+            self,
+            {
+                "counterweight_mass_kg": positive(high=1e5, unit=" kg", why="Table 1: 920 kg"),
+                "brake_force_N": positive(allow_zero=True, high=1e7, unit=" N", why="Table 1: 3.13e5 N"),
+                "transfer_rate": positive(high=100.0, why="Table 1: 3"),
+                "brake_velocity_width_m_s": positive(high=10.0, unit=" m/s", why="default 0.05 m/s"),
+                "brake_profile_travel_m": positive(high=1000.0, unit=" m", why="default 6 m"),
+            },
+        )
         if self.brake_profile is not None:
+            check_real("brake_profile", self.brake_profile)
             if self.brake_profile.ndim < 1 or self.brake_profile.shape[-1] < 2:
                 raise ValueError(
                     f"brake_profile must hold at least 2 factors (last axis), got shape {self.brake_profile.shape}"
                 )
             check_finite("brake_profile", self.brake_profile)
             check_positive("brake_profile", self.brake_profile, allow_zero=True)
+            check_range("brake_profile", self.brake_profile, 0.0, 100.0, inclusive=True, why="factors of F_f")
 
     def profile_factor(self, w):
         """The profile's factor ``phi(w)`` [-] at counterweight rise ``w`` [m] (1 without a profile)."""

@@ -15,10 +15,11 @@ import diffrax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxcable.core.validation import check_choice
+from jaxcable.core.simulate import check_solver_arguments
+from jaxcable.core.validation import check_bool, check_choice, check_instance
 from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.layout import ArrestingLayout, CaptureState
-from jaxcable.arresting.passive import FIDELITY_LEVELS, G_CRITERIA, LandingCriteria, passive_landing_scene
+from jaxcable.arresting.passive import FIDELITY_LEVELS, G_CRITERIA, LandingCriteria, check_t_end, passive_landing_scene
 
 __all__ = ["LEVEL_DEFAULTS", "LEVEL_STEP_CONTROL", "LandingRun", "report_landing", "run_landing"]
 
@@ -95,6 +96,13 @@ def run_landing(
 
     enable_x64()
     check_choice("fidelity", fidelity, FIDELITY_LEVELS)
+    check_instance("capture", capture, CaptureState, allow_none=True)
+    check_instance("layout", layout, ArrestingLayout, allow_none=True)
+    check_instance("buffer", buffer, BufferDevice, allow_none=True)
+    check_instance("criteria", criteria, LandingCriteria)
+    check_t_end("t_end_s", t_end_s)
+    check_solver_arguments(solver=solver, rtol=rtol, atol=atol, max_steps=max_steps)
+    check_bool("progress", progress)
     capture = CaptureState() if capture is None else capture
     layout = ArrestingLayout() if layout is None else layout
     buffer = BufferDevice() if buffer is None else buffer

@@ -96,7 +96,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxcable.core.validation import _concrete, check_finite, check_positive, check_range
-from jaxcable.core.validation import float_array as _float_array
+from jaxcable.core.validation import as_float_array
 from jaxcable.components.multibody import (
     MasslessBeams,
     MultibodyState,
@@ -142,43 +142,43 @@ class LandingRocketParams(eqx.Module):
     run time (``eqx.tree_at`` on ``rocket.params`` changes them in a built rocket).
     """
 
-    radius_m: jax.Array = eqx.field(converter=_float_array, default=2.0)
+    radius_m: jax.Array = eqx.field(converter=as_float_array, default=2.0)
     """``R_r``: rocket radius [m]."""
-    length_m: jax.Array = eqx.field(converter=_float_array, default=40.0)
+    length_m: jax.Array = eqx.field(converter=as_float_array, default=40.0)
     """``L_r``: rocket length [m]."""
-    structure_mass_kg: jax.Array = eqx.field(converter=_float_array, default=12.5e3)
+    structure_mass_kg: jax.Array = eqx.field(converter=as_float_array, default=12.5e3)
     """Thin-walled structure, uniform along the axis [kg] (our reading; Table 1's rhoA gives 20.06 t)."""
-    engine_mass_kg: jax.Array = eqx.field(converter=_float_array, default=12.5e3)
+    engine_mass_kg: jax.Array = eqx.field(converter=as_float_array, default=12.5e3)
     """``m_engine`` [kg]."""
-    engine_height_m: jax.Array = eqx.field(converter=_float_array, default=0.0)
+    engine_height_m: jax.Array = eqx.field(converter=as_float_array, default=0.0)
     """Height of the engine's CoM above the bottom [m] (0: "at its bottom"; gives L_c = 30 m)."""
-    engine_inertia_axial_kg_m2: jax.Array = eqx.field(converter=_float_array, default=2.5e4)
+    engine_inertia_axial_kg_m2: jax.Array = eqx.field(converter=as_float_array, default=2.5e4)
     """``J_zz^engine`` about the engine CoM [kg m^2]."""
-    engine_inertia_transverse_kg_m2: jax.Array = eqx.field(converter=_float_array, default=4.16e3)
+    engine_inertia_transverse_kg_m2: jax.Array = eqx.field(converter=as_float_array, default=4.16e3)
     """``J_xx^engine = J_yy^engine`` about the engine CoM [kg m^2]."""
-    EA_N: jax.Array = eqx.field(converter=_float_array, default=2.63e9)
+    EA_N: jax.Array = eqx.field(converter=as_float_array, default=2.63e9)
     """``EA``: axial stiffness of the rocket beams [N]."""
-    EJ_N_m2: jax.Array = eqx.field(converter=_float_array, default=5.24e9)
+    EJ_N_m2: jax.Array = eqx.field(converter=as_float_array, default=5.24e9)
     """``EJ``: bending stiffness [N m^2] (Table 1 prints the unit as N/m)."""
-    GJ_N_m2: jax.Array = eqx.field(converter=_float_array, default=5.24e9 / 1.3)
+    GJ_N_m2: jax.Array = eqx.field(converter=as_float_array, default=5.24e9 / 1.3)
     """``GJ``: torsional stiffness [N m^2]; not in Table 1, ``EJ / (1 + 0.3)``."""
-    beam_damping_s: jax.Array = eqx.field(converter=_float_array, default=0.0)
+    beam_damping_s: jax.Array = eqx.field(converter=as_float_array, default=0.0)
     """``beta``: stiffness-proportional damping of the rocket beams [s]; not in Table 1 (0 = undamped)."""
-    hook_mass_kg: jax.Array = eqx.field(converter=_float_array, default=45.0)
+    hook_mass_kg: jax.Array = eqx.field(converter=as_float_array, default=45.0)
     """``m_h``: mass of one hook [kg]."""
-    hook_length_m: jax.Array = eqx.field(converter=_float_array, default=3.5)
+    hook_length_m: jax.Array = eqx.field(converter=as_float_array, default=3.5)
     """``l_h``: arm length, hinge to tip [m]."""
-    hook_barb_m: jax.Array = eqx.field(converter=_float_array, default=1.0)
+    hook_barb_m: jax.Array = eqx.field(converter=as_float_array, default=1.0)
     """``h_h``: barb length, tip downward parallel to the axis [m]."""
-    hook_deploy_angle_rad: jax.Array = eqx.field(converter=_float_array, default=math.pi / 3)
+    hook_deploy_angle_rad: jax.Array = eqx.field(converter=as_float_array, default=math.pi / 3)
     """``theta_h``: deployed angle between arm and rocket axis [rad] (rest angle of the spring)."""
-    hook_diameter_m: jax.Array = eqx.field(converter=_float_array, default=0.15)
+    hook_diameter_m: jax.Array = eqx.field(converter=as_float_array, default=0.15)
     """``d_h``: hook (rod) diameter [m]."""
-    hook_stiffness_N_per_m: jax.Array = eqx.field(converter=_float_array, default=1.5e5)
+    hook_stiffness_N_per_m: jax.Array = eqx.field(converter=as_float_array, default=1.5e5)
     """``k_h``: hook spring, acting at the tip perpendicular to the arm (our reading) [N/m]."""
-    hook_damping_N_s_per_m: jax.Array = eqx.field(converter=_float_array, default=4.0e5)
+    hook_damping_N_s_per_m: jax.Array = eqx.field(converter=as_float_array, default=4.0e5)
     """``c_h``: hook damper, acting at the tip perpendicular to the arm (our reading) [N s/m]."""
-    hinge_height_m: jax.Array = eqx.field(converter=_float_array, default=20.0)
+    hinge_height_m: jax.Array = eqx.field(converter=as_float_array, default=20.0)
     """``L_h``: height of the hook hinges above the bottom [m] (see the module docstring)."""
 
     def __check_init__(self):

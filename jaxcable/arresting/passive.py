@@ -34,11 +34,19 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxcable.core.validation import check_choice, check_positive
+from jaxcable.core.validation import (
+    check_choice,
+    check_instance,
+    check_int,
+    check_positive,
+    check_range,
+    check_vector,
+)
 from jaxcable.core.scene import AbstractScene
 from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.cable_sets import AleCables, HookPoints, MasslessCables, throat_weights
 from jaxcable.arresting.layout import ArrestingLayout, CaptureState, check_hooks_inside_frame
+from jaxcable.components.wind import AeroCoefficients, WindField
 
 __all__ = [
     "FIDELITY_LEVELS",
@@ -90,18 +98,52 @@ stress and acceleration peaks by 0.2-0.3 % (they last less than 1 ms; small agai
 4-5 %); pass ``save_spacing_s=2.5e-4`` for < 1e-4."""
 
 
+MAX_T_END_S = 60.0
+"""Longest passive landing a builder accepts [s]: the design case stops within 1 s (Fig 11) and
+the runs here last 0.1-2 s; 60 s of 1 ms samples is 60,001 saved states."""
+
+MAX_CABLE_DAMPING_S = 0.1
+"""Largest stiffness-proportional cable damping beta a builder accepts [s]: the tests use up to
+1e-2 s; at 0.1 s the cable-counterweight mode (~30 rad/s) is already over-damped
+(``beta omega / 2 = 1.5``), and larger beta only makes the cables viscous rods."""
+
+MAX_SPAN_ELEMENTS = 256
+"""Most ALE elements per arresting span a builder accepts: 16x the default (the explicit step falls
+with the shortest element, so 256 already costs hours per simulated second)."""
+
+
 def _check_save_grid(save_spacing_s, n_save):
     check_positive("save_spacing_s", save_spacing_s)
+    check_range("save_spacing_s", save_spacing_s, 0.0, 1.0, high_inclusive=True, unit=" s")
     if n_save is not None and (isinstance(n_save, bool) or not isinstance(n_save, (int, np.integer)) or n_save < 2):
         raise ValueError(f"n_save must be an integer >= 2 or None, got {n_save!r}")
+    if n_save is not None and n_save > 10**7:
+        raise ValueError(f"n_save must be at most 1e7 (a saved state each), got {n_save!r}")
+
+
+def check_t_end(name, t_end_s):
+    """A passive landing's duration: in ``(0, MAX_T_END_S]`` seconds."""
+    check_range(name, t_end_s, 0.0, MAX_T_END_S, high_inclusive=True, unit=" s",
+                why="a landing stops within about 1 s, Fig 11")  # fmt: skip
+
+
+def check_cable_damping(name, cable_damping_s):
+    """The cables' stiffness-proportional damping beta: in ``[0, MAX_CABLE_DAMPING_S]`` seconds."""
+    check_positive(name, cable_damping_s, allow_zero=True)
+    check_range(name, cable_damping_s, 0.0, MAX_CABLE_DAMPING_S, inclusive=True, unit=" s",
+                why="over-damped already at 0.1 s")  # fmt: skip
 
 
 class LandingCriteria(eqx.Module):
-    """Success criteria of the passive phase (section IV.A)."""
+    """Success criteria of the passive phase (section IV.A): positive and finite."""
 
     z_max_m: float = 10.0
     a_max_g: float = 5.0
     sigma_max_mpa: float = 800.0
+
+    def __check_init__(self):
+        for name in ("z_max_m", "a_max_g", "sigma_max_mpa"):
+            check_positive(name, getattr(self, name))
 
 
 class PassiveState(eqx.Module):
@@ -203,9 +245,15 @@ class PassiveLandingScene(AbstractScene):
                 f"samples at one per save_spacing_s = {self.save_spacing_s} s is unknown; pass t1 as a Python "
                 "float, give the scene a fixed n_save, or pass save_ts to simulate"
             )
-        t1 = float(t1)
         check_positive("t1", t1)
-        return max(2, round(t1 / self.save_spacing_s) + 1)
+        t1 = float(t1)
+        n = max(2, round(t1 / self.save_spacing_s) + 1)
+        if n > 10**7:
+            raise ValueError(
+                f"t1 must give at most 1e7 saved samples at save_spacing_s = {self.save_spacing_s:g} s "
+                f"(t1 <= {1e7 * self.save_spacing_s:g} s), got t1 = {t1:g}"
+            )
+        return n
 
     def default_save_ts(self, t1):
         """``num_saved(t1)`` equally spaced times over ``[0, t1]`` [s]: one per ``save_spacing_s``
@@ -421,8 +469,29 @@ def passive_landing_scene(
     if cable_model is None:
         cable_model = "massless" if fidelity == "rigid" else "ale"
     check_choice("cable_model", cable_model, ("massless", "ale"))
-    check_positive("cable_damping_s", cable_damping_s, allow_zero=True)
+    check_instance("capture", capture, CaptureState, allow_none=True)
+    check_instance("layout", layout, ArrestingLayout, allow_none=True)
+    check_instance("buffer", buffer, BufferDevice, allow_none=True)
+    check_instance("contact", contact, eqx.Module, allow_none=True)
+    check_instance("rocket_params", rocket_params, eqx.Module, allow_none=True)
+    check_instance("wind", wind, WindField, allow_none=True)
+    check_instance("aero", aero, AeroCoefficients, allow_none=True)
+    check_cable_damping("cable_damping_s", cable_damping_s)
+    check_t_end("t_end_s", t_end_s)
     _check_save_grid(save_spacing_s, n_save)
+    check_int("n_span_elements", n_span_elements, 3, MAX_SPAN_ELEMENTS)
+    check_int("n_fine", n_fine, 1, MAX_SPAN_ELEMENTS)
+    if n_span_elements < n_fine + 2:
+        raise ValueError(
+            f"n_span_elements must be >= n_fine + 2 (a coarse element on each side), got "
+            f"n_span_elements={n_span_elements}, n_fine={n_fine}"
+        )
+    check_positive("fine_half_width_m", fine_half_width_m)
+    check_range("fine_half_width_m", fine_half_width_m, 0.0, 1000.0, high_inclusive=True, unit=" m")
+    check_int("n_rocket_bodies", n_rocket_bodies, 1, 100)
+    check_positive("wind_time_offset_s", wind_time_offset_s, allow_zero=True)
+    if frame_centre_xy is not None:
+        check_vector("frame_centre_xy", frame_centre_xy, (2,))
     capture = CaptureState() if capture is None else capture
     layout = ArrestingLayout() if layout is None else layout
     buffer = BufferDevice() if buffer is None else buffer
@@ -465,8 +534,6 @@ def passive_landing_scene(
             damping_s=cable_damping_s,
         )
     if wind is not None:
-        from jaxcable.components.wind import AeroCoefficients
-
         aero = AeroCoefficients() if aero is None else aero
         if isinstance(cables, AleCables):
             cables = dataclasses.replace(cables, wind=wind, aero=aero, wind_time_offset_s=wind_time_offset_s)

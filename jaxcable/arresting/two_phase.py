@@ -294,6 +294,15 @@ def tracking_scene(
     v_ws = s["wind_speed_max_m_s"] if wind_speed_m_s is None else wind_speed_m_s
     check_positive("height_m", h)
     check_positive("tracking_time_s", t_c)
+    CaptureState.check_arguments(z_m=h, vz_m_s=-h / t_c, names=dict(z_m="height_m", vz_m_s="height_m / tracking_time_s"))
+    TrackingController.check_arguments(gain_per_s=a_p, tracking_time_s=t_c, motor_delay_s=motor_delay_s, noise_rms_m=noise_rms_m)
+    WindField.check_arguments(prefix="wind_", speed_m_s=v_ws, angle_deg=wind_angle_deg)
+    WindField.check_arguments(prefix="", gust_intensity=gust_intensity)
+    if not isinstance(seed, jax.Array) and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2**32):
+        raise ValueError(f"seed must be an integer in [0, 2**32) or a PRNG key, got {seed!r}")
+    for name, value, cls in (("terminal", terminal, CaptureState), ("layout", layout, ArrestingLayout), ("aero", aero, AeroCoefficients)):
+        if value is not None and not isinstance(value, cls):
+            raise TypeError(f"{name} must be a {cls.__name__} or None, got {value!r}")
     terminal = deviated_case() if terminal is None else terminal
     terminal = eqx.tree_at(
         lambda c: (c.z_m, c.vz_m_s), terminal, (jnp.asarray(h, float), -jnp.asarray(h, float) / t_c)
@@ -520,6 +529,12 @@ def run_two_phase(
 
     enable_x64()
     check_choice("fidelity", fidelity, ("rigid", "ale", "full"))
+    check_positive("passive_t_end_s", passive_t_end_s)  # (upper bounds: run_landing's, after phase 1)
+    check_positive("cable_damping_s", cable_damping_s, allow_zero=True)
+    if buffer is not None and not isinstance(buffer, BufferDevice):
+        raise TypeError(f"buffer must be a BufferDevice or None, got {buffer!r}")
+    if not isinstance(criteria, LandingCriteria):
+        raise TypeError(f"criteria must be a LandingCriteria, got {criteria!r}")
     scene = tracking_scene(terminal, scenario=scenario, **scene_kwargs)
     track, out = _tracking_jit(scene)
     land = run_landing(

@@ -120,7 +120,7 @@ from jaxtyping import Array
 
 from jaxcable.core.math import cubic_step, safe_norm, safe_normalize
 from jaxcable.core.validation import check_finite, check_positive, check_range
-from jaxcable.core.validation import float_array as _float_array, concrete as _concrete_float
+from jaxcable.core.validation import as_float_array, concrete as _concrete_float
 
 __all__ = [
     "DEFAULT_EFFECTIVE_MASS",
@@ -276,35 +276,38 @@ class ContactLaw(eqx.Module):
     docstring and next to ``DEFAULT_LOAD``: the paper gives no contact parameters.
     """
 
-    k: Array = eqx.field(default=_DEFAULT_K, converter=_float_array)
+    k: Array = eqx.field(default=_DEFAULT_K, converter=as_float_array)
     """stiffness [N/m^e], shape (); default 8.49e8: 3e5 N penetrates 5 mm at e = 1.5"""
-    e: Array = eqx.field(default=1.5, converter=_float_array)
+    e: Array = eqx.field(default=1.5, converter=as_float_array)
     """force exponent [-], shape (), >= 1; 1.5 is Hertz point contact (crossed cylinders)"""
-    c: Array = eqx.field(default=_DEFAULT_C, converter=_float_array)
+    c: Array = eqx.field(default=_DEFAULT_C, converter=as_float_array)
     """Hunt-Crossley damping factor [s/m], shape (); ``f_n = k rho^e (1 + c delta_dot)``. Default
     0.2: critical damping of a 10 kg mass about the 3e5 N design load (restitution 0.88 at a
     1 m/s impact, 0.59 at 5 m/s, 0.41 at 10 m/s)"""
-    mu_s: Array = eqx.field(default=0.15, converter=_float_array)
+    mu_s: Array = eqx.field(default=0.15, converter=as_float_array)
     """static friction coefficient [-], shape (); 0.15: lubricated steel on steel (wire rope
     dressing; dry steel on steel is ~0.5-0.8)"""
-    mu_d: Array = eqx.field(default=0.10, converter=_float_array)
+    mu_d: Array = eqx.field(default=0.10, converter=as_float_array)
     """dynamic friction coefficient [-], shape (); 0.10: lubricated steel on steel"""
-    v_s: Array = eqx.field(default=0.01, converter=_float_array)
+    v_s: Array = eqx.field(default=0.01, converter=as_float_array)
     """slip speed at which ``mu`` reaches ``mu_s`` [m/s], shape ()"""
-    v_d: Array = eqx.field(default=0.05, converter=_float_array)
+    v_d: Array = eqx.field(default=0.05, converter=as_float_array)
     """slip speed beyond which ``mu = mu_d`` [m/s], shape (), > v_s"""
-    onset_width: Array = eqx.field(default=5.0e-4, converter=_float_array)
+    onset_width: Array = eqx.field(default=5.0e-4, converter=as_float_array)
     """width of the contact-onset ramp [m], shape (); the spring is exactly ``k delta^e`` past it.
     Default 0.5 mm = a tenth of the design penetration: static penetration is exact above
     ``k w^e`` = 9.5 kN and over-predicted by at most ``4 w / 27`` = 0.074 mm below"""
-    damping_clip_width: Array = eqx.field(default=0.1, converter=_float_array)
+    damping_clip_width: Array = eqx.field(default=0.1, converter=as_float_array)
     """width of the smooth clip of ``1 + c delta_dot`` at zero [-], shape (), in (0, 1]"""
 
     def __check_init__(self):
         check_positive("ContactLaw.k", self.k)
-        check_range("ContactLaw.e", self.e, 1.0, np.inf, inclusive=True)
+        check_range("ContactLaw.e", self.e, 1.0, 5.0, inclusive=True, why="1: linear, 1.5: Hertz point contact")
         for name in ("c", "mu_s", "mu_d"):
             check_positive(f"ContactLaw.{name}", getattr(self, name), allow_zero=True)
+        for name in ("mu_s", "mu_d"):
+            check_range(f"ContactLaw.{name}", getattr(self, name), 0.0, 2.0, inclusive=True,
+                        why="dry steel on steel: 0.5-0.8")  # fmt: skip
         for name in ("v_s", "v_d", "onset_width"):
             check_positive(f"ContactLaw.{name}", getattr(self, name))
         check_positive("ContactLaw.damping_clip_width", self.damping_clip_width)

@@ -74,7 +74,11 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float, Int
 
 from jaxcable.core.math import cubic_step, smooth_relu
-from jaxcable.core.validation import check_positive
+from jaxcable.core.validation import check_positive, check_real
+
+MAX_SEGMENTS = 20_000
+"""Most segments :func:`make_rope` builds (the state holds two numbers per segment; 800 m of rope at
+0.1 m is 8,000)."""
 
 
 class SegmentRope(eqx.Module):
@@ -128,9 +132,22 @@ def make_rope(
     drag_coefficient=1.0,
     payout_smoothing_mps=0.05,
 ) -> SegmentRope:
-    """Build a :class:`SegmentRope`, rounding the rope length up to whole segments."""
+    """Build a :class:`SegmentRope`, rounding the rope length up to whole segments (at most
+    ``MAX_SEGMENTS``; a segment no longer than the rope)."""
     check_positive("segment_length_m", segment_length_m)
     check_positive("rope_length_m", rope_length_m)
+    for name, value in (("linear_density_kg_per_m", linear_density_kg_per_m), ("diameter_m", diameter_m),
+                        ("drag_coefficient", drag_coefficient), ("payout_smoothing_mps", payout_smoothing_mps)):  # fmt: skip
+        check_real(name, value)
+    if float(segment_length_m) > float(rope_length_m):
+        raise ValueError(
+            f"segment_length_m must be at most rope_length_m = {float(rope_length_m):g} m, got {segment_length_m!r}"
+        )
+    if rope_length_m / segment_length_m > MAX_SEGMENTS:
+        raise ValueError(
+            f"segment_length_m must give at most {MAX_SEGMENTS} segments of the {float(rope_length_m):g} m rope "
+            f"(segment_length_m >= {float(rope_length_m) / MAX_SEGMENTS:g} m), got {segment_length_m!r}"
+        )
     capacity = int(math.ceil(rope_length_m / segment_length_m - 1e-9))
     f = lambda x: jnp.asarray(x, dtype=float)
     return SegmentRope(

@@ -139,8 +139,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxcable.core.math import safe_norm, safe_normalize
-from jaxcable.core.validation import _concrete, check_finite, check_positive, check_range
-from jaxcable.core.validation import float_array as _float_array
+from jaxcable.core.validation import _concrete, check_finite, check_positive, check_range, check_seed
+from jaxcable.core.validation import as_float_array
 
 __all__ = [
     "AIR_DENSITY_KG_M3",
@@ -250,27 +250,28 @@ class WindField(eqx.Module):
     ):
         if not (isinstance(n_components, (int, np.integer)) and n_components >= 2):
             raise ValueError(f"n_components must be an integer >= 2, got {n_components!r}")
+        check_seed("key", key)
         if isinstance(key, (int, np.integer)):
             key = jax.random.PRNGKey(int(key))
         k_quantile, k_phase = jax.random.split(key)
-        self.speed_m_s = _float_array(speed_m_s)
-        self.angle_deg = _float_array(angle_deg)
-        self.gust_intensity = _float_array(gust_intensity)
-        self.air_density_kg_m3 = _float_array(air_density_kg_m3)
-        self.length_scale_m = _float_array(length_scale_m)
-        self.lateral_length_scale_m = _float_array(lateral_length_scale_m)
-        self.lateral_ratio = _float_array(lateral_ratio)
-        self.spectrum_speed_m_s = _float_array(spectrum_speed_m_s)
-        self.min_frequency_hz = _float_array(min_frequency_hz)
-        self.max_frequency_hz = _float_array(max_frequency_hz)
+        self.speed_m_s = as_float_array(speed_m_s)
+        self.angle_deg = as_float_array(angle_deg)
+        self.gust_intensity = as_float_array(gust_intensity)
+        self.air_density_kg_m3 = as_float_array(air_density_kg_m3)
+        self.length_scale_m = as_float_array(length_scale_m)
+        self.lateral_length_scale_m = as_float_array(lateral_length_scale_m)
+        self.lateral_ratio = as_float_array(lateral_ratio)
+        self.spectrum_speed_m_s = as_float_array(spectrum_speed_m_s)
+        self.min_frequency_hz = as_float_array(min_frequency_hz)
+        self.max_frequency_hz = as_float_array(max_frequency_hz)
         self.band_quantiles = jax.random.uniform(k_quantile, (2, n_components), dtype=float)
         self.phases_rad = jax.random.uniform(k_phase, (2, n_components), dtype=float, maxval=2.0 * math.pi)
 
     def __check_init__(self):
-        check_positive("wind.speed_m_s", self.speed_m_s, allow_zero=True)
-        check_finite("wind.angle_deg", self.angle_deg)
-        check_range("wind.gust_intensity", self.gust_intensity, 0.0, 1.0, inclusive=True)
-        check_positive("wind.air_density_kg_m3", self.air_density_kg_m3, allow_zero=True)
+        WindField.check_arguments(
+            speed_m_s=self.speed_m_s, angle_deg=self.angle_deg, gust_intensity=self.gust_intensity,
+            air_density_kg_m3=self.air_density_kg_m3,
+        )  # fmt: skip
         for name in ("length_scale_m", "lateral_length_scale_m", "spectrum_speed_m_s", "min_frequency_hz"):
             check_positive(f"wind.{name}", getattr(self, name))
         check_positive("wind.lateral_ratio", self.lateral_ratio, allow_zero=True)
@@ -289,6 +290,26 @@ class WindField(eqx.Module):
             )
         check_range("wind.band_quantiles", self.band_quantiles, 0.0, 1.0, inclusive=True)
         check_finite("wind.phases_rad", self.phases_rad)
+
+    @staticmethod
+    def check_arguments(prefix="wind.", **values):
+        """Check the steady wind's values by the class's bounds before building one (names in
+        messages are ``prefix + field``): ``speed_m_s`` in ``[0, 100]`` m/s (Table 4: up to 20 m/s;
+        100 m/s is beyond any surface wind on record), ``angle_deg`` in ``[-360, 360]`` deg (a
+        direction; Table 2: 0-360), ``gust_intensity`` in ``[0, 1]`` (Table 4: 0.1-0.2) and
+        ``air_density_kg_m3`` in ``[0, 10]`` kg/m^3 (sea level: 1.225)."""
+        rules = {
+            "speed_m_s": lambda n, v: (check_positive(n, v, allow_zero=True),
+                                       check_range(n, v, 0.0, 100.0, inclusive=True, unit=" m/s", why="Table 4: up to 20 m/s")),
+            "angle_deg": lambda n, v: check_range(n, v, -360.0, 360.0, inclusive=True, unit=" deg"),
+            "gust_intensity": lambda n, v: check_range(n, v, 0.0, 1.0, inclusive=True, why="Table 4: 0.1-0.2"),
+            "air_density_kg_m3": lambda n, v: (check_positive(n, v, allow_zero=True),
+                                               check_range(n, v, 0.0, 10.0, inclusive=True, unit=" kg/m^3")),
+        }  # fmt: skip
+        for name, value in values.items():
+            if name not in rules:
+                raise ValueError(f"unknown WindField argument {name!r}; choose one of {sorted(rules)}")
+            rules[name](prefix + name, value)
 
     # -- directions ------------------------------------------------------------------------------
 
@@ -382,20 +403,20 @@ class AeroCoefficients(eqx.Module):
     """Aerodynamic coefficients of the rocket and the cables (the paper's wind-tunnel values are not
     given; the defaults are textbook values, each with its reasoning). Arrays, sweepable."""
 
-    rocket_axial_drag_coefficient: jax.Array = eqx.field(converter=_float_array, default=0.8)
+    rocket_axial_drag_coefficient: jax.Array = eqx.field(converter=as_float_array, default=0.8)
     """``C_D`` of eq 44 on the base area ``pi R_r^2``, () [-]. A blunt, flat-faced circular cylinder in
     axial flow has ~0.8 (Hoerner, Fluid-Dynamic Drag, 1965, ch. 3); the rocket descends engine first."""
-    rocket_normal_force_slope_per_rad: jax.Array = eqx.field(converter=_float_array, default=2.0)
+    rocket_normal_force_slope_per_rad: jax.Array = eqx.field(converter=as_float_array, default=2.0)
     """``C_N`` of eq 44 on ``pi R_r^2``, () [1/rad]: slender-body theory's ``C_N_alpha = 2``."""
-    rocket_crossflow_drag_coefficient: jax.Array = eqx.field(converter=_float_array, default=0.8)
+    rocket_crossflow_drag_coefficient: jax.Array = eqx.field(converter=as_float_array, default=0.8)
     """``C_n`` of the rocket's viscous cross-flow on its planform ``2 R_r l``, () [-]: ``eta C_dc`` with a
     circular cylinder's subcritical ``C_dc = 1.2`` (conservative: a 4 m body at 10-20 m/s has
     ``Re ~ 5e6``, supercritical, 0.5-0.7 for a smooth one) and Allen & Perkins' finite-length factor
     ``eta ~ 0.67`` for ``L/d = 10``. 0 gives eq 44 alone."""
-    cable_normal_drag_coefficient: jax.Array = eqx.field(converter=_float_array, default=1.2)
+    cable_normal_drag_coefficient: jax.Array = eqx.field(converter=as_float_array, default=1.2)
     """``C_n`` of a cable in cross-flow on ``d l``, () [-]: circular cylinder / stranded wire rope at the
     subcritical ``Re = V d / nu ~ 3e4`` of a 40 mm cable in 10 m/s."""
-    cable_tangential_drag_coefficient: jax.Array = eqx.field(converter=_float_array, default=0.01)
+    cable_tangential_drag_coefficient: jax.Array = eqx.field(converter=as_float_array, default=0.01)
     """``C_t`` of skin friction along a cable on its wetted area ``pi d l``, () [-] (~1 % of ``C_n``
     per unit area: the order of the tangential coefficients used for wire rope and towed cables)."""
     rocket_elements_per_body: int = eqx.field(static=True, default=4)

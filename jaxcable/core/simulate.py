@@ -16,7 +16,7 @@ import diffrax
 import optimistix as optx
 from jaxtyping import Array, PyTree
 
-from jaxcable.core.validation import check_choice, check_positive
+from jaxcable.core.validation import check_bool, check_choice, check_int, check_positive, check_range, real
 
 SOLVERS = {
     "euler": diffrax.Euler,
@@ -46,6 +46,58 @@ def status_message(code) -> str:
         return str(diffrax.RESULTS._index_to_message[code])  # noqa: SLF001
     except Exception:  # pragma: no cover - depends on the diffrax version
         return f"solver_error_{code}"
+
+
+MAX_RTOL = 0.1
+"""Loosest relative tolerance accepted: a step-size controller allowed 10 % local error per step
+gives no solution worth reporting (the runs here use 1e-4 to 1e-12)."""
+
+MAX_STEPS_LIMIT = 10**9
+"""Largest step budget accepted (the runs here use 5e4 to 1e6)."""
+
+
+def check_solver_arguments(*, solver=None, rtol=None, atol=None, max_steps=None, dt0=None, t1=None):
+    """Checks of :func:`simulate`'s solver arguments (``None``: not given, nothing to check), for
+    entry points that take them and must reject bad ones before building or compiling anything:
+    ``solver`` a name in ``SOLVERS`` or a diffrax solver, ``0 < rtol <= MAX_RTOL``, ``atol``
+    positive and finite, ``max_steps`` an integer in ``[1, MAX_STEPS_LIMIT]``, ``dt0`` positive,
+    finite and at most ``t1``, ``t1`` positive and finite."""
+    if solver is not None:
+        if isinstance(solver, str):
+            check_choice("solver", solver.lower(), SOLVERS)
+        elif not isinstance(solver, diffrax.AbstractSolver):
+            raise ValueError(f"unknown solver {solver!r}; choose one of {sorted(SOLVERS)} or a diffrax solver")
+    if rtol is not None:
+        check_positive("rtol", rtol)
+        check_range("rtol", rtol, 0.0, MAX_RTOL, high_inclusive=True, why="a looser tolerance solves nothing")
+    if atol is not None:
+        check_positive("atol", atol)
+    if max_steps is not None:
+        check_int("max_steps", max_steps, 1, MAX_STEPS_LIMIT)
+    if t1 is not None:
+        check_positive("t1", t1)
+    if dt0 is not None:
+        check_positive("dt0", dt0)
+        t1_ = None if t1 is None else real("t1", t1)
+        dt0_ = real("dt0", dt0)
+        if t1_ is not None and dt0_ is not None and np.any(dt0_ > t1_):
+            raise ValueError(f"dt0 must be at most t1 = {float(np.max(t1_)):g} s, got {dt0!r}")
+
+
+def _check_times(name, ts, t1):
+    """Saved times: a finite, non-decreasing 1-D array inside ``[0, t1]`` (when concrete)."""
+    v = real(name, ts)
+    t1_ = real("t1", t1)
+    if v is None:
+        return
+    if v.ndim != 1:
+        raise ValueError(f"{name} must be a 1-D array of times [s], got shape {v.shape}")
+    if not np.all(np.isfinite(v)):
+        raise ValueError(f"{name} must be finite, got {ts!r}")
+    if v.size and np.any(np.diff(v) < 0):
+        raise ValueError(f"{name} must be non-decreasing, got {ts!r}")
+    if t1_ is not None and t1_.shape == () and v.size and (v[0] < 0.0 or v[-1] > float(t1_)):
+        raise ValueError(f"{name} must lie in [0, t1 = {float(t1_):g}] s, got [{v[0]:g}, {v[-1]:g}]")
 
 
 def make_solver(solver):
@@ -229,12 +281,19 @@ def simulate(
     """
     if probes_after is not None and not isinstance(probes_after, bool):
         raise ValueError(f"probes_after must be True, False or None, got {probes_after!r}")
-    check_positive("t1", t1)
-    check_positive("rtol", rtol)
-    check_positive("atol", atol)
+    check_solver_arguments(solver=solver, rtol=rtol, atol=atol, max_steps=max_steps, dt0=dt0, t1=t1)
+    if solver is None:
+        raise ValueError(f"unknown solver None; choose one of {sorted(SOLVERS)} or a diffrax solver")
     check_positive("icoeff", icoeff)
+    real("pcoeff", pcoeff)
     if not (pcoeff >= 0.0):
         raise ValueError(f"pcoeff must be >= 0, got {pcoeff!r}")
+    check_bool("progress", progress)
+    check_bool("jit", jit)
+    if save_ts is not None:
+        _check_times("save_ts", save_ts, t1)
+    if snapshot_ts is not None:
+        _check_times("snapshot_ts", snapshot_ts, t1)
     solver_ = make_solver(solver)
     controller = diffrax.PIDController(rtol=rtol, atol=atol, pcoeff=pcoeff, icoeff=icoeff)
     jumps = scene.jump_times()

@@ -13,7 +13,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from jaxcable.core.math import safe_norm, smooth_step
-from jaxcable.core.validation import check_choice, check_positive
+from jaxcable.core.validation import as_array, check_choice, check_positive
 
 _DRAG_FORMS = ("standard", "per_axis")
 
@@ -33,7 +33,7 @@ class Gravity(AbstractForce):
         g_mps2: gravitational acceleration [m/s^2].
     """
 
-    g_mps2: Float[Array, ""] = eqx.field(converter=jnp.asarray, default=9.81)
+    g_mps2: Float[Array, ""] = eqx.field(converter=as_array, default=9.81)
 
     def __check_init__(self):
         check_positive("gravity.g_mps2", self.g_mps2, allow_zero=True)
@@ -63,7 +63,7 @@ class AeroDrag(AbstractForce):
         form: "standard" or "per_axis" (static).
     """
 
-    air_density_kgpm3: Float[Array, ""] = eqx.field(converter=jnp.asarray, default=1.225)
+    air_density_kgpm3: Float[Array, ""] = eqx.field(converter=as_array, default=1.225)
     form: str = eqx.field(static=True, default="standard")
 
     def __check_init__(self):
@@ -141,7 +141,7 @@ class ConstantPullOut(AbstractForce):
         speed_width_mps: payout speed over which the force switches on (tanh) [m/s] (static).
     """
 
-    force_N: Float[Array, ""] = eqx.field(converter=jnp.asarray, default=50.0)
+    force_N: Float[Array, ""] = eqx.field(converter=as_array, default=50.0)
     speed_width_mps: float = eqx.field(static=True, default=0.1)
 
     def __check_init__(self):
@@ -160,7 +160,7 @@ class MomentumFluxPullOut(AbstractForce):
     An optional constant box resistance ``box_force_N`` adds on top.
     """
 
-    box_force_N: Float[Array, ""] = eqx.field(converter=jnp.asarray, default=0.0)
+    box_force_N: Float[Array, ""] = eqx.field(converter=as_array, default=0.0)
     speed_width_mps: float = eqx.field(static=True, default=0.1)
 
     def __check_init__(self):

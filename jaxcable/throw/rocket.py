@@ -82,6 +82,7 @@ class PointRocket(eqx.Module):
 
 def paper_rocket(drag_coefficient=0.5) -> PointRocket:
     """The paper's rocket (section 4.1): 20 kg, 2.33 kg propellant, 4770 N s over 0.43 s, 122 mm."""
+    check_positive("drag_coefficient", drag_coefficient, allow_zero=True)
     f = lambda x: jnp.asarray(x, dtype=float)
     return PointRocket(
         mass_kg=f(20.0),

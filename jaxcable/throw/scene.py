@@ -18,7 +18,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from jaxcable.core.validation import check_choice, check_positive, check_range
+from jaxcable.core.validation import check_bool, check_choice, check_positive, check_range
 from jaxcable.throw.rocket import PointRocket, paper_rocket
 from jaxcable.throw.forces import AeroDrag, Gravity, Ground, Thrust, make_pullout
 from jaxcable.components.rope import (
@@ -45,6 +45,12 @@ CALIBRATION = {
         "The printed 0.43 kg/m cannot reach the measured speeds (README, Physical sanity)."
     ),
 }
+
+
+MAX_FLIGHT_S = 600.0
+"""Longest flight simulated with the default saved grid [s] (10 ms samples): the 4770 N s motor
+gives the 20 kg rocket at most ~240 m/s, so even a vertical flight in vacuum lands within a minute
+(the command line's default is 40 s)."""
 
 
 class Launch(eqx.Module):
@@ -136,6 +142,8 @@ class LineThrowingScene(AbstractScene):
         return jnp.reshape(self.rocket.burn_time_s, (1,))
 
     def default_save_ts(self, t1):
+        check_range("t1", t1, 0.0, MAX_FLIGHT_S, high_inclusive=True, unit=" s",
+                    why="the rocket lands within a minute at any launch angle")  # fmt: skip
         grid = jnp.arange(0.0, t1, self.save_dt_s)
         extra = jnp.minimum(jnp.stack([self.rocket.burn_time_s, 1.0, 2.0, 3.0, 4.0]), t1)
         return jnp.sort(jnp.concatenate([grid, extra]))
@@ -224,6 +232,36 @@ def line_throwing_scene(
     """
     check_range("angle_deg", angle_deg, 0.0, 90.0, unit=" deg")
     check_choice("drag form", drag_form, ("standard", "per_axis"))
+    # physical ranges, each far outside the paper's values and the calibration (CALIBRATION)
+    check_positive("rope_length_m", rope_length_m)
+    check_range("rope_length_m", rope_length_m, 0.0, 5000.0, high_inclusive=True, unit=" m",
+                why="6x the paper's 800 m box")  # fmt: skip
+    check_positive("segment_length_m", segment_length_m)
+    check_range("segment_length_m", segment_length_m, 0.1, 5000.0, inclusive=True, unit=" m",
+                why="at least 10 rope diameters")  # fmt: skip
+    if float(segment_length_m) > float(rope_length_m):
+        raise ValueError(
+            f"segment_length_m must be at most rope_length_m = {float(rope_length_m):g} m, got {segment_length_m!r}"
+        )
+    for name, value, high, unit in (
+        ("rocket_drag_coefficient", rocket_drag_coefficient, 10.0, ""),
+        ("rope_drag_coefficient", rope_drag_coefficient, 10.0, ""),
+        ("rope_linear_density_kg_per_m", rope_linear_density_kg_per_m, 10.0, " kg/m"),
+        ("rope_diameter_m", rope_diameter_m, 0.5, " m"),
+    ):
+        if value is not None:
+            check_positive(name, value, allow_zero="drag" in name)
+            check_range(name, value, 0.0, high, inclusive=True, unit=unit)
+    check_positive("pullout_force_N", pullout_force_N, allow_zero=True)
+    check_range("pullout_force_N", pullout_force_N, 0.0, 1e5, inclusive=True, unit=" N",
+                why="the motor's thrust is 11 kN")  # fmt: skip
+    check_positive("rail_length_m", rail_length_m)
+    check_range("rail_length_m", rail_length_m, 0.0, float(rope_length_m), unit=" m",
+                why="the rail's rope is part of the rope")  # fmt: skip
+    check_range("gravity_mps2", gravity_mps2, 0.0, 100.0, inclusive=True, unit=" m/s^2")
+    check_range("air_density_kgpm3", air_density_kgpm3, 0.0, 10.0, inclusive=True, unit=" kg/m^3")
+    check_bool("ground", ground)
+    check_bool("drag", drag)
     cal = CALIBRATION
     pick = lambda v, key: cal[key] if v is None else v
     rope = make_rope(
