@@ -59,6 +59,7 @@ def parse_args(argv=None):
     p.add_argument("--devices", nargs="+", type=int, default=[1, 2])
     p.add_argument("--ale-t-end", type=float, default=0.3)
     p.add_argument("--replot", action="store_true")
+    p.add_argument("--out", help="report folder (default experiments/results; --quick: experiments/out/bench_sweep_quick)")
     p.add_argument("--worker", help=argparse.SUPPRESS)  # JSON job, run inside a subprocess
     return p.parse_args(argv)
 
@@ -236,7 +237,7 @@ def main(argv=None):
     if args.worker:
         print(json.dumps(worker(json.loads(args.worker))))
         return 0
-    out_dir = _report.output_dir(quick=args.quick, sub="bench_sweep_quick")
+    out_dir = _report.output_dir(args.out, quick=args.quick, sub="bench_sweep_quick")
     json_path, md_path = out_dir / f"{STEM}.json", out_dir / f"{STEM}.md"
     if args.replot:
         write_md(json.loads(json_path.read_text()), md_path)
