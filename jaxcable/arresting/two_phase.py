@@ -699,8 +699,6 @@ def two_phase_case_fn(fidelity="rigid", *, scenario="I", seed=0, buffer=None, la
 
 registry.register_case_function("arresting.full", two_phase_case_fn)
 
-_event_occurred = event_occurred  # the name arresting/design.py imports
-
 
 def _to_python(out):
     res = {}

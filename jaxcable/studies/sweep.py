@@ -36,7 +36,7 @@ import jax
 import numpy as np
 
 from jaxcable.core.validation import check_positive
-from jaxcable.studies.sharding import device_mesh, evaluate, round_up, stack_cases
+from jaxcable.studies.sharding import device_mesh, evaluate, round_up
 
 __all__ = [
     "AbstractCaseFunction",
@@ -51,8 +51,6 @@ __all__ = [
 ]
 
 _OK_STATUS = tuple(int(r._value) for r in (diffrax.RESULTS.successful, diffrax.RESULTS.event_occurred))
-
-_stack_cases = stack_cases  # the name arresting/design.py imports
 
 
 # ------------------------------------------------------------------------------------------------
