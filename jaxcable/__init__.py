@@ -10,6 +10,7 @@ and :mod:`jaxcable.studies` (sweeps, optimisers, benchmarks).
 
 from jaxcable.core import SOLVERS, AbstractScene, Result, enable_x64, make_solver, simulate, status_message
 from jaxcable.core.provenance import __version__
+from jaxcable import arresting, throw  # noqa: F401  (each system registers its case functions, design problems and bench cases)
 from jaxcable.throw import line_throwing_scene
 
 __all__ = [
