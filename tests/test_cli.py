@@ -15,7 +15,13 @@ from pathlib import Path
 import pytest
 
 from jaxcable.cli import build_parser, main
-from jaxcable.core.config import CACHE_DIR_ENV, NO_CACHE_ENV, cache_disabled_by_env, default_cache_dir
+from jaxcable.core.config import (
+    CACHE_DIR_ENV,
+    NO_CACHE_ENV,
+    cache_disabled_by_env,
+    default_cache_dir,
+    enable_compilation_cache,
+)
 
 SUBCOMMANDS = ("throw", "land", "sweep", "design", "bench")
 ONE_DOF = ["land", "--fidelity", "1dof", "--json"]
@@ -92,6 +98,17 @@ def test_cache_folder_from_the_environment(monkeypatch, tmp_path):
     for value, off in (("1", True), ("yes", True), ("0", False), ("", False), ("false", False)):
         monkeypatch.setenv(NO_CACHE_ENV, value)
         assert cache_disabled_by_env() is off, value
+
+
+def test_a_cache_folder_that_cannot_be_made_leaves_the_cache_off(monkeypatch, tmp_path):
+    monkeypatch.delenv(NO_CACHE_ENV)
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    with pytest.warns(UserWarning, match="compilation cache off"):
+        assert enable_compilation_cache(blocker / "cache") is None
+    monkeypatch.setenv(NO_CACHE_ENV, "1")
+    assert enable_compilation_cache(tmp_path / "cache") is None
+    assert not (tmp_path / "cache").exists()
 
 
 def _land_1dof(cache: Path, *extra: str, no_cache_env: bool = False) -> subprocess.Popen:
