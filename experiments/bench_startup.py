@@ -14,6 +14,8 @@ Writes ``bench_startup.json`` and ``bench_startup.md`` (machine, JAX version, pr
 averages) into ``experiments/results`` (or ``--out``). Usage:
     python experiments/bench_startup.py                      # every command (~15-25 min on 2 busy cores)
     python experiments/bench_startup.py --commands throw land_1dof --out /tmp/startup
+    python experiments/bench_startup.py --diagnose          # also the DIAGNOSES variants
+    python experiments/bench_startup.py --rewrite --note "..."   # the .md again from the .json
 """
 
 from __future__ import annotations
@@ -149,9 +151,10 @@ def bench_command(argv: list, timeout_s: float, env_extra: dict | None = None) -
         after_first = _cache_files(cache)
         second = run_once(argv, cache, timeout_s, env_extra)
         after_second = _cache_files(cache)
-    same = first["output"] is not None and _strip(first.pop("output")) == _strip(second.pop("output"))
+    output = first.pop("output")
+    same = output is not None and _strip(output) == _strip(second.pop("output"))
     return {
-        "argv": argv, "env": env_extra or {}, "first": first, "second": second, "cache_after_first": after_first,
+        "argv": argv, "env": env_extra or {}, "output": output, "first": first, "second": second, "cache_after_first": after_first,
         "cache_after_second": after_second, "same_output": same, "speedup": first["wall_s"] / second["wall_s"],
     }  # fmt: skip
 
@@ -221,7 +224,16 @@ def main() -> None:
     p.add_argument("--timeout", type=float, default=1800.0, help="seconds one process may take (default 1800)")
     p.add_argument("--out", default=None, help="output folder (default experiments/results)")
     p.add_argument("--note", action="append", default=[], help="a line for the report's notes (repeatable)")
+    p.add_argument("--rewrite", action="store_true", help="rewrite bench_startup.md from bench_startup.json, adding the --note lines")
     args = p.parse_args()
+    if args.rewrite:
+        out = output_dir(args.out)
+        data = json.loads((out / "bench_startup.json").read_text())
+        data["notes"] = data.get("notes", []) + args.note
+        (out / "bench_startup.json").write_text(json.dumps(data, indent=1, default=float))
+        write_md(data, out / "bench_startup.md")
+        print(f"rewrote {out / 'bench_startup.md'}")
+        return
     import jax
 
     jax.config.update("jax_enable_x64", True)  # the commands run in float64; machine_info records it
