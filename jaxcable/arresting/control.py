@@ -27,46 +27,12 @@ D_cmd              ``command``                  commanded position, integral of 
 I                  ``command_integral``         the state behind D_cmd (see below) [m]
 =================  ===========================  ============================================
 
-Measurement and filter (eqs 1-2)
---------------------------------
-The measured head and bottom positions carry isotropic Gaussian noise (eq 1). Reading: "RMS
-sigma_r" is the RMS of *each* Cartesian component (the 3D vector's RMS is sqrt(3) sigma_r).
-Samples are i.i.d. at the sampling instants k Delta t (a discrete white noise). The paper does not
-give Delta t; the default 0.02 s (50 Hz, a common rate for laser trackers) keeps the filter's mean
-delay 2 Delta t = 0.04 s below the motor dead time (tau = 0.1 s), so the loop delay is set by the
-motor as the paper assumes, and its second-order error 2.3 Delta t^2 |a| (below) is 9 mm for a
-free-falling point (|a| = 9.81 m/s^2), a tenth of sigma_r = 0.1 m.
-
-Eq 2 is the FIR filter ``r(t) = sum_j w_j r^m(t - j Delta t)``, w = (0.3, 0.4, 0.3), j = 1, 2, 3.
-Inside a continuous ODE the true positions are available only at the current time, so for a
-smoothly moving point we use the Taylor expansion of the filter: with ``sum w_j = 1``,
-``sum j w_j = 2`` and ``sum j^2 w_j = 4.6``,
-
-    sum_j w_j r(t - j Dt) = r - 2 Dt v + (4.6 / 2) Dt^2 a + O(Dt^3)
-                          = [r(t) - 2 Dt v(t)] + 2.3 Dt^2 a + O(Dt^3 |a'|),
-
-so :func:`delayed_measurement` ``r - 2 Dt v`` is exact at constant velocity and errs by
-``2.3 Dt^2 a`` (exactly, for a quadratic trajectory; tested against the discrete filter). The true
-delayed position r(t - 2 Dt) = r - 2 Dt v + 2 Dt^2 a would err by only 0.3 Dt^2 a, but it needs a
-history of the scene's state. The noise part of eq 2 is exact on the sample grid: the filtered
-noise sequence ``n_f[k] = 0.3 n[k-1] + 0.4 n[k-2] + 0.3 n[k-3]`` (RMS ``sqrt(0.34) sigma_r``) is
-linearly interpolated between the samples (:class:`NoiseTrack`): continuous and piecewise linear in
-t, so an adaptive solver meets kinks, not jumps, at the sample times.
-
-Target rule (eq 3)
-------------------
-Our world frame has z up and the capture (top) plane at z = 0. The paper's words: while the whole
-rocket is *above* the plane, the target is the bottom's projection; once it crosses the plane, the
-intersection of the rocket axis with the plane. "Above" is z_b >= 0 here, which is the printed
-inequality (section II.B's drop coordinate points down, where the same words would read z_b <= 0;
-we follow the words). The intersection formula ``x_b - (x_b - x_h) z_b / (z_b - z_h)`` does not
-depend on the sign convention of z. We write both branches as one point on the axis,
-``r_b + s (r_h - r_b)`` with ``s = max(-z_b, 0) / (z_h - z_b)`` clamped to [0, 1]: s = 0 above the
-plane (projection), the printed intersection below it, continuous at z_b = 0 (s -> 0). The clamp
-(our addition; eq 3 is silent there) picks the head's projection when the head too is below the
-plane, and keeps a horizontal or inverted axis finite. The division uses the double-``where``
-trick, so values and gradients are finite everywhere (the rule is continuous with a kink at
-z_b = 0, as printed).
+Measurement, filter and target rule (eqs 1-3)
+---------------------------------------------
+In :mod:`jaxcable.arresting.measurement`: the noisy, filtered measurement of head and bottom
+(:func:`~jaxcable.arresting.measurement.filtered_measurement`, ``r - 2 Delta t v`` plus the
+filtered noise of a :class:`~jaxcable.arresting.measurement.NoiseTrack`) and the target rule
+(:func:`~jaxcable.arresting.measurement.slider_target`).
 
 PD law, ramp and motor (eqs 4-8) as a state space (eq 46)
 ---------------------------------------------------------
@@ -105,33 +71,13 @@ Fig 4's "e = 17" is read as an initial error of 17 m (constant target 17 m, slid
 
 Dead time
 ---------
-diffrax has no delay equations. ``e^{-tau s}`` is replaced by a rational approximant
-``R(tau s)`` realised as ``tau x' = A0 x + B0 u``, ``y = C0 x + D0 u`` with constant matrices in the
-scaled variable ``sigma = tau s`` (so tau is an array field: vmappable and differentiable):
-
-* :class:`PadeDelay`: the [n/n] Pade approximant (all-pass, |R| = 1). Its companion form has
-  states of wildly different scale (the constant coefficient is 30240 at n = 5), which misleads
-  an adaptive solver's mixed error norm; we use the *balanced* realisation (Gramians equal; for an
-  all-pass every Hankel singular value is 1), computed once per order with SciPy.
-* :class:`LagChainDelay`: n first-order lags of tau / n each, ``1 / (1 + tau s / n)^n``.
-
-At tau = 0 both are the identity, y = u: a double ``where`` keeps the 1 / tau branch out of values
-and gradients there. The gradient with respect to tau *at* tau = 0 is therefore 0 (the identity
-branch), not the one-sided derivative for tau -> 0+; it is exact for every tau > 0. Small positive tau makes the filter stiff (fastest pole |p_max| / tau, |p_max|
-= 2, 3.5, 5.1, 6.8, 8.5 for Pade orders 1-5); use an implicit solver for tau << 0.01 s.
-
-Measured on the Fig 4 case (tau = 0.1 s, t_c = 10 s, a_p = 2, 17 m, no noise; against the exact
-delayed reference :func:`delayed_loop_reference`; ``experiments/figure4_controller.py``): Pade
-orders 1-5 err 4.8e-4, 2.2e-5, 5.9e-6, 2.3e-6, 1.1e-6 m in d and 5.3e-3, 1.0e-3, 4.2e-4, 2.2e-4,
-1.3e-4 m/s in v_p (peak 6.3 m/s); a chain of 16 lags errs 1.1e-3 m and 2.0e-3 m/s, worse than Pade
-order 1. Default: Pade order 2 (see ``TrackingController.delay_order``).
+diffrax has no delay equations: ``e^{-tau s}`` is replaced by a rational approximant in state-space
+form, :class:`~jaxcable.arresting.motor_delay.PadeDelay` (default, order 2) or
+:class:`~jaxcable.arresting.motor_delay.LagChainDelay`, in :mod:`jaxcable.arresting.motor_delay`
+(realisation, behaviour at tau = 0, and the errors measured on the Fig 4 case).
 """
 
 from __future__ import annotations
-
-import abc
-import functools
-import math
 
 import diffrax
 import equinox as eqx
@@ -139,166 +85,31 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxcable.arresting.measurement import (  # noqa: F401  (re-exported: imported from here by tests and experiments)
+    FILTER_DELAYS,
+    FILTER_WEIGHTS,
+    NoiseTrack,
+    delayed_measurement,
+    filter_noise_samples,
+    filtered_measurement,
+    measurement_noise,
+    measurement_noise_track,
+    slider_target,
+    target_point,
+)
+from jaxcable.arresting.motor_delay import AbstractDelay, LagChainDelay, PadeDelay
 from jaxcable.core.validation import as_array, check_choice, check_fields, check_finite, check_positive, check_range, positive
 
 __all__ = [
-    "FILTER_DELAYS",
-    "FILTER_WEIGHTS",
-    "AbstractDelay",
     "ControllerState",
-    "LagChainDelay",
-    "NoiseTrack",
-    "PadeDelay",
     "RocketPath",
     "TrackingController",
     "TrackingRun",
     "delayed_loop_reference",
-    "delayed_measurement",
-    "filter_noise_samples",
-    "filtered_measurement",
     "kappa",
     "kappa_rate",
-    "measurement_noise",
-    "measurement_noise_track",
     "run_tracking_loop",
-    "slider_target",
-    "target_point",
 ]
-
-FILTER_WEIGHTS = (0.3, 0.4, 0.3)
-"""Weights of the moving-average filter of eq 2 [-] (they sum to 1)."""
-FILTER_DELAYS = (1, 2, 3)
-"""Delays of the filter taps, in samples (mean delay sum w_j j = 2 samples)."""
-
-
-# ---------------------------------------------------------------------------------------------
-# measurement noise and the 3-tap filter (eqs 1-2)
-# ---------------------------------------------------------------------------------------------
-
-
-def measurement_noise(key, n_samples: int, noise_rms_m):
-    """Raw measurement noise of head and bottom (eq 1): i.i.d. isotropic Gaussian samples.
-
-    Args:
-        key: a ``jax.random`` key (the same key gives the same noise).
-        n_samples: number of sampling instants (static).
-        noise_rms_m: sigma_r, RMS of each Cartesian component [m] (scalar).
-
-    Returns:
-        (n_samples, 2, 3) [m]: index 0 is the head, 1 the bottom.
-    """
-    return jnp.asarray(noise_rms_m) * jax.random.normal(key, (int(n_samples), 2, 3))
-
-
-def filter_noise_samples(raw):
-    """Eq 2 applied to a sampled sequence (..., with time on axis 0): ``y[k] = 0.3 raw[k+2] +
-    0.4 raw[k+1] + 0.3 raw[k]``, i.e. output sample k uses the raw samples 1, 2, 3 steps before it
-    when raw sample j is taken at time (j - 3) Delta t. Returns ``len(raw) - 3`` samples."""
-    w1, w2, w3 = FILTER_WEIGHTS
-    return w1 * raw[2:-1] + w2 * raw[1:-2] + w3 * raw[:-3]
-
-
-class NoiseTrack(eqx.Module):
-    """Filtered measurement noise on the sample grid t_k = k Delta t, linearly interpolated.
-
-    Continuous and piecewise linear in t (differentiable between samples), so it can drive an
-    adaptive ODE solver. Before t = 0 it holds the first value, after the last sample the last one.
-    """
-
-    sample_period_s: jax.Array = eqx.field(converter=as_array)
-    """Delta t: sampling period [s], scalar."""
-    values_m: jax.Array = eqx.field(converter=as_array)
-    """Filtered noise at t_k = k Delta t: (n, 2, 3) [m] (head, bottom; x, y, z), n >= 2."""
-
-    def __check_init__(self):
-        check_positive("sample_period_s", self.sample_period_s)
-        check_finite("values_m", self.values_m)
-        if self.values_m.ndim != 3 or self.values_m.shape[1:] != (2, 3) or self.values_m.shape[0] < 2:
-            raise ValueError(f"values_m must have shape (n >= 2, 2, 3), got {self.values_m.shape}")
-
-    @property
-    def sample_times(self):
-        """t_k = k Delta t [s], (n,)."""
-        return self.sample_period_s * jnp.arange(self.values_m.shape[0])
-
-    def __call__(self, t):
-        """Filtered noise of head and bottom at time t [s]: (2, 3) [m]."""
-        n = self.values_m.shape[0]
-        k = t / self.sample_period_s
-        i = jnp.clip(jnp.floor(k), 0, n - 2)
-        frac = jnp.clip(k - i, 0.0, 1.0)
-        i = i.astype(int)
-        return (1.0 - frac) * self.values_m[i] + frac * self.values_m[i + 1]
-
-
-def measurement_noise_track(key, controller: "TrackingController", t_end_s: float, sample_period_s=None) -> NoiseTrack:
-    """Filtered noise covering [0, t_end_s] with the controller's Delta t and sigma_r.
-
-    Sizes need concrete ``t_end_s`` and ``controller.sample_period_s``; ``noise_rms_m`` may be
-    traced (vmap over it). Draws ``n + 3`` raw samples for ``n`` filtered ones (eq 2 looks back 3).
-    ``sample_period_s`` (a Python float) overrides the controller's, for callers that trace it."""
-    check_positive("t_end_s", t_end_s)
-    dt = controller.sample_period_s if sample_period_s is None else sample_period_s
-    if isinstance(dt, jax.core.Tracer):
-        raise ValueError("sample_period_s must be concrete to size the noise track")
-    n = int(math.ceil(float(t_end_s) / float(dt))) + 2
-    if n > 10**7:
-        raise ValueError(
-            f"t_end_s must give at most 1e7 noise samples at sample_period_s = {float(dt):g} s, got t_end_s = {t_end_s!r}"
-        )
-    raw = measurement_noise(key, n + 3, controller.noise_rms_m)
-    return NoiseTrack(sample_period_s=dt, values_m=filter_noise_samples(raw))
-
-
-def delayed_measurement(position_m, velocity_m_s, sample_period_s):
-    """Noise-free part of the filtered measurement (eq 2) of a smoothly moving point:
-    ``r - 2 Delta t v`` [m] (exact at constant velocity; error 2.3 Delta t^2 a). Any shape (..., 3)."""
-    return position_m - 2.0 * sample_period_s * velocity_m_s
-
-
-def filtered_measurement(positions_m, velocities_m_s, t, noise, sample_period_s):
-    """What the controller sees at time t (eqs 1-2): ``r - 2 Delta t v + n_f(t)``.
-
-    Args:
-        positions_m, velocities_m_s: true head and bottom, (2, 3) [m], [m/s] (head first).
-        t: time since the start of tracking [s].
-        noise: a :class:`NoiseTrack`, or None for a noise-free measurement.
-        sample_period_s: Delta t [s].
-
-    Returns:
-        (2, 3) [m]: filtered head, bottom.
-    """
-    measured = delayed_measurement(positions_m, velocities_m_s, sample_period_s)
-    return measured if noise is None else measured + noise(t)
-
-
-# ---------------------------------------------------------------------------------------------
-# target rule (eq 3)
-# ---------------------------------------------------------------------------------------------
-
-
-def target_point(r_head, r_bottom):
-    """Eq 3 in the z-up frame: the target (x_t, y_t) [m] on the top plane z = 0, shape (2,).
-
-    Bottom above the plane (z_b >= 0): the bottom's projection; below: the intersection of the
-    axis bottom -> head with z = 0 (the head's projection if the head is below too). NaN-free with
-    finite gradients everywhere (see the module docstring).
-    """
-    z_b, z_h = r_bottom[2], r_head[2]
-    depth = jnp.maximum(-z_b, 0.0)  # how far the bottom is below the plane
-    crossing = depth > 0.0
-    # s = depth / (z_h - z_b), clamped to [0, 1]: dividing by max(z_h - z_b, depth) clamps it and is
-    # > 0 in the branch that uses it; the other branch divides by 1 (double where: no 0/0 in grads)
-    denom = jnp.where(crossing, jnp.maximum(z_h - z_b, depth), 1.0)
-    s = jnp.where(crossing, depth / denom, 0.0)
-    return r_bottom[:2] + s * (r_head[:2] - r_bottom[:2])
-
-
-def slider_target(r_head, r_bottom):
-    """d^target = [x_t, x_t, y_t, y_t] [m], (4,): sliders 1-2 move along x, 3-4 along y."""
-    xy = target_point(r_head, r_bottom)
-    return jnp.stack([xy[0], xy[0], xy[1], xy[1]])
-
 
 # ---------------------------------------------------------------------------------------------
 # saturation ramp (eq 6)
@@ -313,137 +124,6 @@ def kappa(t, t_c):
 def kappa_rate(t, t_c):
     """d kappa / dt [1/s]: 2 / t_c on [0, t_c / 2), else 0 (right-continuous)."""
     return jnp.where((t >= 0.0) & (t < 0.5 * t_c), 2.0 / t_c, 0.0)
-
-
-# ---------------------------------------------------------------------------------------------
-# dead time: rational approximants of e^{-tau s}
-# ---------------------------------------------------------------------------------------------
-
-
-@functools.lru_cache(maxsize=None)
-def _pade_matrices(order: int):
-    """Balanced realisation (A0, B0, C0, D0) of the [n/n] Pade approximant of e^{-sigma}."""
-    import scipy.linalg
-
-    n = order
-    # D(sigma) = sum_k c_k sigma^k, N(sigma) = D(-sigma); R = N / D
-    c = np.array(
-        [
-            math.factorial(2 * n - k) * math.factorial(n)
-            / (math.factorial(2 * n) * math.factorial(k) * math.factorial(n - k))
-            for k in range(n + 1)
-        ]
-    )
-    a = c / c[n]  # monic denominator
-    A = np.zeros((n, n))
-    A[:-1, 1:] = np.eye(n - 1)
-    A[-1, :] = -a[:n]
-    B = np.zeros((n, 1))
-    B[-1, 0] = 1.0
-    D = float((-1) ** n)
-    numer = a * (-1.0) ** np.arange(n + 1)  # monic-scaled numerator, leading coefficient (-1)^n
-    C = (numer[:n] - D * a[:n])[None, :]
-    # balance: W_c = W_o = Sigma (all ones for an all-pass); T = L U Sigma^{-1/2}, W_c = L L^T
-    Wc = scipy.linalg.solve_continuous_lyapunov(A, -B @ B.T)
-    Wo = scipy.linalg.solve_continuous_lyapunov(A.T, -C.T @ C)
-    L = np.linalg.cholesky(Wc)
-    U, s2, _ = np.linalg.svd(L.T @ Wo @ L)
-    T = L @ U @ np.diag(s2**-0.25)
-    Ti = np.linalg.inv(T)
-    return Ti @ A @ T, (Ti @ B)[:, 0], (C @ T)[0], D
-
-
-@functools.lru_cache(maxsize=None)
-def _lag_chain_matrices(n_lags: int):
-    """(A0, B0, C0, D0) of 1 / (1 + sigma / n)^n: x_1' = n (u - x_1), x_k' = n (x_{k-1} - x_k)."""
-    n = n_lags
-    A = n * (-np.eye(n) + np.eye(n, k=-1))
-    B = np.zeros(n)
-    B[0] = n
-    C = np.zeros(n)
-    C[-1] = 1.0
-    return A, B, C, 0.0
-
-
-class AbstractDelay(eqx.Module):
-    """A rational approximant R(tau s) of the dead time e^{-tau s}, realised in the scaled variable
-    sigma = tau s: ``tau x' = A0 x + B0 u``, ``y = C0 x + D0 u``. Concrete subclasses give the
-    matrices; ``delay_s`` is an array field of each."""
-
-    @property
-    @abc.abstractmethod
-    def n_states(self) -> int:
-        """Number of filter states per channel."""
-
-    @abc.abstractmethod
-    def unit_matrices(self):
-        """NumPy (A0 (n, n), B0 (n,), C0 (n,), D0 float) of R(sigma)."""
-
-    def derivative(self, x, u):
-        """Filter states x (..., n) and input u (...) -> (dx/dt (..., n), delayed output y (...)).
-
-        At delay_s = 0 the filter is the identity (y = u, x frozen); the 1 / tau branch is kept out
-        of values and gradients there by a double ``where``."""
-        A0, B0, C0, D0 = (jnp.asarray(m) for m in self.unit_matrices())
-        tau = self.delay_s
-        has_delay = tau > 0.0
-        tau_safe = jnp.where(has_delay, tau, 1.0)
-        dx = (x @ A0.T + u[..., None] * B0) / tau_safe
-        dx = jnp.where(has_delay, dx, 0.0)
-        y = jnp.where(has_delay, x @ C0 + D0 * u, u)
-        return dx, y
-
-    def frequency_response(self, omega_rad_s):
-        """R(i omega tau) as a NumPy complex array (for tests and plots; concrete delay_s only)."""
-        A0, B0, C0, D0 = self.unit_matrices()
-        tau = float(self.delay_s)
-        out = []
-        for w in np.atleast_1d(np.asarray(omega_rad_s, float)):
-            sig = 1j * w * tau
-            out.append(C0 @ np.linalg.solve(sig * np.eye(len(B0)) - A0, B0) + D0)
-        return np.array(out)
-
-
-class PadeDelay(AbstractDelay):
-    """[n/n] Pade approximant of e^{-tau s} (all-pass), balanced state-space realisation."""
-
-    delay_s: jax.Array = eqx.field(converter=as_array, default=0.1)
-    """tau: dead time [s], scalar, >= 0."""
-    order: int = eqx.field(static=True, default=2)
-    """Pade order n (1..8): n states per channel."""
-
-    def __check_init__(self):
-        check_positive("delay_s", self.delay_s, allow_zero=True)
-        if not isinstance(self.order, (int, np.integer)) or not 1 <= int(self.order) <= 8:
-            raise ValueError(f"order must be an integer in [1, 8], got {self.order!r}")
-
-    @property
-    def n_states(self) -> int:
-        return int(self.order)
-
-    def unit_matrices(self):
-        return _pade_matrices(int(self.order))
-
-
-class LagChainDelay(AbstractDelay):
-    """A chain of n first-order lags of tau / n each: ``1 / (1 + tau s / n)^n``."""
-
-    delay_s: jax.Array = eqx.field(converter=as_array, default=0.1)
-    """tau: dead time [s], scalar, >= 0."""
-    n_lags: int = eqx.field(static=True, default=4)
-    """Number of lags n (>= 1): n states per channel."""
-
-    def __check_init__(self):
-        check_positive("delay_s", self.delay_s, allow_zero=True)
-        if not isinstance(self.n_lags, (int, np.integer)) or int(self.n_lags) < 1:
-            raise ValueError(f"n_lags must be a positive integer, got {self.n_lags!r}")
-
-    @property
-    def n_states(self) -> int:
-        return int(self.n_lags)
-
-    def unit_matrices(self):
-        return _lag_chain_matrices(int(self.n_lags))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -499,7 +179,7 @@ class TrackingController(eqx.Module):
     motor_bandwidth_per_s: jax.Array = eqx.field(converter=as_array, default=1.0)
     """b: bandwidth of the motor's position loop [1/s], > 0 (eq 8: 1)."""
     sample_period_s: jax.Array = eqx.field(converter=as_array, default=0.02)
-    """Delta t: sampling period [s], > 0 (not in the paper; 50 Hz, see the module docstring)."""
+    """Delta t: sampling period [s], > 0 (not in the paper; 50 Hz, see :mod:`jaxcable.arresting.measurement`)."""
     noise_rms_m: jax.Array = eqx.field(converter=as_array, default=0.1)
     """sigma_r: RMS of each component of the measurement noise [m], >= 0."""
     delay_order: int = eqx.field(static=True, default=2)
@@ -507,9 +187,10 @@ class TrackingController(eqx.Module):
     case the Pade error is 2.2e-5 m in d and 1.0e-3 m/s in v_p (0.02 % of the 6.3 m/s peak),
     far below the 0.1 m noise. Order 1 errs 20 times more in d (4.8e-4 m) and 5 times more in v_p
     (5.3e-3 m/s); order 3 gains only 4x in d and 2.5x in v_p for one more state per channel and a
-    ~50 % faster pole (module docstring; ``experiments/results/figure4_controller.md``)."""
+    ~50 % faster pole (:mod:`jaxcable.arresting.motor_delay`; ``experiments/results/figure4_controller.md``)."""
     delay_model: str = eqx.field(static=True, default="pade")
-    """``"pade"`` (:class:`PadeDelay`) or ``"lags"`` (:class:`LagChainDelay`)."""
+    """``"pade"`` (:class:`~jaxcable.arresting.motor_delay.PadeDelay`) or ``"lags"``
+    (:class:`~jaxcable.arresting.motor_delay.LagChainDelay`)."""
     ramp: bool = eqx.field(static=True, default=True)
     """Multiply the PD law by kappa(t) (eq 5); ``False``: kappa = 1 (Fig 4's "without kappa")."""
     motor_lag: bool = eqx.field(static=True, default=True)
@@ -627,7 +308,7 @@ class TrackingController(eqx.Module):
     def measured_slider_target(self, t, positions_m, velocities_m_s, noise=None):
         """d^target (4,) [m] from the true head/bottom positions and velocities (2, 3) (eqs 1-3).
 
-        ``positions_m[0]`` is the head, ``[1]`` the bottom; ``noise`` a :class:`NoiseTrack` or None."""
+        ``positions_m[0]`` is the head, ``[1]`` the bottom; ``noise`` a :class:`~jaxcable.arresting.measurement.NoiseTrack` or None."""
         measured = filtered_measurement(positions_m, velocities_m_s, t, noise, self.sample_period_s)
         return slider_target(measured[0], measured[1])
 
@@ -765,7 +446,7 @@ def run_tracking_loop(
         controller: :class:`TrackingController`.
         rocket: :class:`RocketPath` (Fig 4: a still rocket, ``experiments/figure4_controller.py``).
         save_ts: output times [s], increasing, from 0; the run ends at ``save_ts[-1]``.
-        noise: a :class:`NoiseTrack` (``measurement_noise_track(key, controller, t1)``) or None.
+        noise: a :class:`~jaxcable.arresting.measurement.NoiseTrack` (``measurement_noise_track(key, controller, t1)``) or None.
         solver: a diffrax solver (default ``Tsit5``: the loop is smooth and non-stiff for
             tau >~ 0.01 s; kappa's kink at t_c / 2 is passed to the step-size controller).
         rtol, atol: PID tolerances (arrays inside: changing them does not recompile).

@@ -70,19 +70,35 @@ from __future__ import annotations
 
 import dataclasses
 
+import diffrax
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxcable.core.validation import check_choice, check_positive
+from jaxcable.core.config import enable_x64
 from jaxcable.core.scene import AbstractScene
+from jaxcable.core.simulate import simulate
+from jaxcable.core.validation import check_choice, check_positive
 from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.cable_sets import throat_weights
-from jaxcable.arresting.control import TrackingController, filtered_measurement, measurement_noise_track, target_point
+from jaxcable.arresting.control import TrackingController
+from jaxcable.arresting.measurement import filtered_measurement, measurement_noise_track, target_point
+from jaxcable.arresting.landing import LEVEL_DEFAULTS, LEVEL_STEP_CONTROL, run_landing
+from jaxcable.arresting.landing_rocket import rigid_landing_rocket
 from jaxcable.arresting.layout import HOOK_OF_CABLE, ArrestingLayout, CaptureState
-from jaxcable.arresting.passive import DEFAULT_CABLE_DAMPING_S, LandingCriteria, landing_outputs, passive_landing_scene, smooth_landing_outputs
+from jaxcable.arresting.passive import (
+    DEFAULT_CABLE_DAMPING_S,
+    LandingCriteria,
+    check_cable_damping,
+    check_t_end,
+    landing_outputs,
+    passive_landing_scene,
+    smooth_landing_outputs,
+)
 from jaxcable.arresting.sweep import CAPTURED_PREFIX, AbstractLandingCaseFunction, case_key, criteria_columns, passive_histories
+from jaxcable.arresting.two_phase_report import plot_two_phase, report_two_phase  # noqa: F401  (re-exported: the land command)
+from jaxcable.arresting.uncertainty import UNCERTAIN_PARAMETERS
 from jaxcable.components.wind import AeroCoefficients, WindField, rocket_aero_loads
 from jaxcable.studies import registry
 
@@ -284,7 +300,6 @@ def tracking_scene(
     deviated case of section IV.A); its ``z_m`` and ``vz_m_s`` are replaced by ``h`` and ``-h / t_c``.
     ``wind_speed_m_s`` defaults to the scenario's maximum steady wind. ``seed`` fixes the measurement
     noise and the gust (reproducible)."""
-    from jaxcable.arresting.landing_rocket import rigid_landing_rocket
 
     check_choice("scenario", scenario, SCENARIO_SETTINGS)
     s = SCENARIO_SETTINGS[scenario]
@@ -402,9 +417,6 @@ def two_phase_outputs(
 def _passive_phase(out1, passive, fidelity, t_end_s, criteria, solver_settings=None, adjoint=None):
     """Phase 2 on its built scene ``passive`` with the level's solver and step control: its Result
     and phase 1's outputs ``out1`` joined with the passive outputs, the smooth maxima and ``landed``."""
-    from jaxcable.core.simulate import simulate
-    from jaxcable.arresting.landing import LEVEL_DEFAULTS, LEVEL_STEP_CONTROL
-
     solver, rtol, atol, steps = (solver_settings or {}).get(fidelity, LEVEL_DEFAULTS[fidelity])
     pcoeff, icoeff = LEVEL_STEP_CONTROL[fidelity]
     land = simulate(
@@ -458,8 +470,6 @@ def _air_kwargs(scene, out1, passive_air):
 
 def event_occurred(status):
     """Whether a diffrax result code is ``event_occurred`` (phase 1 ended at the phase switch)."""
-    import diffrax
-
     return status == int(diffrax.RESULTS.event_occurred._value)
 
 
@@ -479,8 +489,6 @@ def tracking_outputs(
 ):
     """Phase 1 alone (pure): its Result and the capture outputs (dict of arrays). ``adjoint``: a
     diffrax adjoint (e.g. ``diffrax.ForwardMode()`` for ``jax.jacfwd``)."""
-    from jaxcable.core.simulate import simulate
-
     track = simulate(scene, scene.t_max_s, rtol=1e-6, atol=1e-6, max_steps=100_000, adjoint=adjoint)
     final = track.final_state
     margins = scene.capture_margins(final)
@@ -524,13 +532,11 @@ def run_two_phase(
 
     Phase 1 is compiled once per scenario structure; phase 2 is :func:`.landing.run_landing` at
     ``fidelity`` from the captured state and the frame's centre at capture."""
-    from jaxcable.core.config import enable_x64
-    from jaxcable.arresting.landing import run_landing
-
     enable_x64()
     check_choice("fidelity", fidelity, ("rigid", "ale", "full"))
-    check_positive("passive_t_end_s", passive_t_end_s)  # (upper bounds: run_landing's, after phase 1)
-    check_positive("cable_damping_s", cable_damping_s, allow_zero=True)
+    check_positive("passive_t_end_s", passive_t_end_s)
+    check_t_end("passive_t_end_s", passive_t_end_s)
+    check_cable_damping("cable_damping_s", cable_damping_s)
     if buffer is not None and not isinstance(buffer, BufferDevice):
         raise TypeError(f"buffer must be a BufferDevice or None, got {buffer!r}")
     if not isinstance(criteria, LandingCriteria):
@@ -586,8 +592,6 @@ class TwoPhaseCaseFunction(AbstractLandingCaseFunction):
         return False  # the phase-switch event's root find does not trace under shard_map
 
     def scene(self, params):
-        from jaxcable.arresting.uncertainty import UNCERTAIN_PARAMETERS
-
         terminal = CaptureState(**{k: params[k] for k in UNCERTAIN_PARAMETERS[:10]})
         key = case_key(self.seed, params)
         return tracking_scene(
@@ -598,8 +602,6 @@ class TwoPhaseCaseFunction(AbstractLandingCaseFunction):
         )  # fmt: skip
 
     def _outputs(self, params, keep_histories=False):
-        import diffrax
-
         # a sweep is not differentiated: diffrax's plain while loop instead of the checkpointed one
         return two_phase_outputs(
             self.scene(params), "rigid", self.buffer, passive_t_end_s=self.t_end_s, criteria=self.criteria,
@@ -628,8 +630,6 @@ class TwoPhaseCaseFunction(AbstractLandingCaseFunction):
         return dict(case[1], **self._capture_histories(o), **passive_histories(land))
 
     def _solve(self, case):
-        import diffrax
-
         out1, _, passive = case
         return _passive_phase(out1, passive, self.fidelity, self.t_end_s, self.criteria, adjoint=diffrax.ForwardMode())
 
@@ -709,109 +709,3 @@ def _to_python(out):
             a = np.asarray(v)
             res[k] = a.item() if a.ndim == 0 else a.tolist()
     return res
-
-
-
-def report_two_phase(run: TwoPhaseRun) -> dict:
-    """The JSON-able summary of a two-phase run (``jaxcable land --phase full --json``)."""
-    from jaxcable.core.simulate import status_message
-
-    o = run.outputs
-    out = {
-        k: o[k]
-        for k in (
-            "captured",
-            "landed",
-            "capture_margin_m",
-            "capture_margins_m",
-            "tracking_error_m",
-            "tracking_error_at_capture_m",
-            "capture_time_s",
-            "captured_state",
-            "frame_centre_at_capture_m",
-            "z_max_m",
-            "a_max_g",
-            "sigma_max_mpa",
-            "stop_time_s",
-            "criteria_met",
-            "z_ok",
-            "a_ok",
-            "sigma_ok",
-            "stopped",
-            "energy_budget_error",
-        )
-    }
-    for k, v in list(out.items()):
-        if isinstance(v, float) and not np.isfinite(v):
-            out[k] = None
-    out["criteria_met"] = bool(o["criteria_met"]) and bool(o["captured"])
-    out["passive_criteria_met"] = bool(o["criteria_met"])
-    out["tracking_solver_status"] = status_message(o["tracking_status"])
-    out["tracking_steps"] = int(o["tracking_steps"])
-    out["solver_status"] = status_message(o["passive_status"])
-    out["num_steps"] = int(o["passive_steps"])
-    out["fidelity"] = run.fidelity
-    out["scenario"] = run.scenario
-    out["phase"] = "full"
-    return out
-
-
-def plot_two_phase(run: TwoPhaseRun, path: str):
-    """A PNG like the paper's Figs 13-14: tracking error, frame centre and target, reel-out speeds,
-    then the passive phase's drop, acceleration, cable stress and hook contact forces."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from jaxcable.arresting.passive import G_CRITERIA
-
-    tr, pa = run.tracking, run.passive
-    ts = np.asarray(tr.ts)
-    ok = np.isfinite(ts)
-    p = {k: np.asarray(v) for k, v in tr.probes.items()}
-    tp = np.asarray(pa.ts)
-    okp = np.isfinite(tp)
-    q = {k: np.asarray(v) for k, v in pa.probes.items() if k != "energy"}
-    t_cap = run.outputs["capture_time_s"]
-    fig, ax = plt.subplots(4, 2, figsize=(11, 11))
-    ax = ax.ravel()
-    ax[0].plot(ts[ok], p["tracking_error_m"][ok], label="|frame centre - measured target|")
-    ax[0].plot(ts[ok], p["true_tracking_error_m"][ok], "--", label="|frame centre - true target|")
-    ax[0].set_yscale("log")
-    ax[0].set_ylabel("tracking error [m]")
-    ax[0].legend(fontsize=7)
-    for i, lab in enumerate("xy"):
-        ax[1].plot(ts[ok], p["frame_centre_xy_m"][ok, i], label=f"frame centre {lab}")
-        ax[1].plot(ts[ok], p["target_xy_m"][ok, i], ":", label=f"target {lab}")
-    ax[1].set_ylabel("position [m]")
-    ax[1].legend(fontsize=7)
-    ax[2].plot(ts[ok], p["reelout_speed_m_s"][ok])
-    ax[2].set_ylabel("reel-out speed v_p [m/s]")
-    ax[3].plot(ts[ok], p["throat_height_m"][ok])
-    ax[3].set_ylabel("hook throat height [m]")
-    for a in ax[:4]:
-        a.set_xlabel("time since terminal guidance [s]")
-    ax[4].plot(tp[okp] + t_cap, q["drop_m"][okp])
-    ax[4].axhline(10.0, color="r", ls=":", lw=1)
-    ax[4].set_ylabel("drop z [m]")
-    ax[5].plot(tp[okp] + t_cap, np.linalg.norm(q["acceleration_m_s2"][okp], axis=1) / G_CRITERIA)
-    ax[5].axhline(5.0, color="r", ls=":", lw=1)
-    ax[5].set_ylabel("|acceleration| [g]")
-    ax[6].plot(tp[okp] + t_cap, q["stress_max_pa"][okp] / 1e6)
-    ax[6].axhline(800.0, color="r", ls=":", lw=1)
-    ax[6].set_ylabel("max cable stress [MPa]")
-    ax[7].plot(tp[okp] + t_cap, q["hook_normal_force_N"][okp] / 1e3)
-    ax[7].set_ylabel("hook-cable force [kN]")
-    for a in ax[4:]:
-        a.set_xlabel("time [s]")
-    o = run.outputs
-    fig.suptitle(
-        f"two-phase landing, scenario {run.scenario}, passive fidelity {run.fidelity}: captured {o['captured']}, "
-        f"z_max {o['z_max_m']:.2f} m, a_max {o['a_max_g']:.2f} g, sigma_max {o['sigma_max_mpa']:.0f} MPa",
-        fontsize=10,
-    )
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
