@@ -305,11 +305,14 @@ def criteria_summary(problem: DesignProblem, aux) -> dict:
     return out
 
 
-def evaluation_report(problem: DesignProblem, x, j, aux) -> dict:
-    """JSON-able report of one evaluation: the design ``{name: value}``, the objective, its terms and
-    :func:`criteria_summary`."""
+def evaluation_report(problem: DesignProblem, aux) -> dict:
+    """JSON-able report of one evaluation (an ``aux`` of :func:`objective`): the design
+    ``{name: value}``, the objective, its terms and :func:`criteria_summary`."""
     terms = {k: float(v) for k, v in aux["terms"].items()}
-    return dict(design=problem.space.as_dict(x), objective=float(j), terms=terms, criteria=criteria_summary(problem, aux))
+    return dict(
+        design=problem.space.as_dict(np.asarray(aux["x"])), objective=terms["total"], terms=terms,
+        criteria=criteria_summary(problem, aux),
+    )  # fmt: skip
 
 
 def history_record(problem: DesignProblem):

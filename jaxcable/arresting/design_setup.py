@@ -282,10 +282,11 @@ class DesignProblem(eqx.Module):
     """most cases per vmapped call inside the objective: the batch runs as ``lax.map`` over as few
     equal chunks of at most this many cases as that allows (padded with copies of the last case,
     whose outputs are dropped, to less than one case per chunk).
-    ``"auto"``: on the CPU ``AUTO_CHUNK`` (forward value and reverse mode 32, forward mode 16; a
-    vmapped solve's cost per case grows with the batch beyond these on the CPU: at n = 64 the
-    forward call runs 1.28x, the forward-mode gradient 1.11x and reverse mode 1.17x faster; ``python
-    experiments/bench_design.py --sections chunk``), elsewhere the whole batch in one vmap.
+    ``"auto"``: on the CPU :data:`jaxcable.studies.batching.AUTO_CHUNK` (forward value and reverse
+    mode 32, forward mode 16; a vmapped solve's cost per case grows with the batch beyond these on
+    the CPU: at n = 64 the forward call runs 1.28x, the forward-mode gradient 1.11x and reverse mode
+    1.17x faster; ``python experiments/bench_design.py --sections chunk``), elsewhere the whole
+    batch in one vmap.
     ``None``: the whole batch. Results agree with the unchunked batch to the integration
     tolerance (vectorised round-off differs with the batch's shape)."""
     scenes: eqx.Module | None = None

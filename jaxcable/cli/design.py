@@ -16,8 +16,7 @@ import time
 
 import numpy as np
 
-import jaxcable.arresting.design  # noqa: F401  (registers the "arresting" design problem)
-import jaxcable.throw.design  # noqa: F401  (registers the "throw" design problem)
+# importing the two design modules registers their problems ("arresting", "throw")
 from jaxcable.arresting.design import PHASES, TAIL_CRITERIA, ObjectiveWeights, criterion_limit
 from jaxcable.arresting.passive import DEFAULT_CABLE_DAMPING_S
 from jaxcable.cli.report import Report, emit
@@ -36,7 +35,9 @@ _UNITS = dict(z_max_m="m", a_max_g="g", sigma_max_mpa="MPa", capture_margin_m="m
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The flags of ``jaxcable design``."""
     p = parser
-    p.add_argument("--scene", choices=list(registry.names("design problem")), default="arresting", help="arresting (buffer design over a QMC batch, default) or throw (line-throwing launch: range under a landing-speed and rope-pull limit)")
+    # the registered problems whose flags this command knows (_RUNNERS)
+    scenes = [name for name in registry.names("design problem") if name in _RUNNERS]
+    p.add_argument("--scene", choices=scenes, default="arresting", help="arresting (buffer design over a QMC batch, default) or throw (line-throwing launch: range under a landing-speed and rope-pull limit)")
     p.add_argument("--vars", default=None, help="design variables, comma-separated: m_w, F_f, a_p, b0 .. b15 or profile:K (the K factors of a brake profile F_f(w) = F_f phi(w)) (default m_w,F_f); with --scene throw: angle_deg, rope_diameter_m, rope_linear_density_kg_per_m (default angle_deg,rope_diameter_m)")
     p.add_argument("--n", type=int, default=64, help="captures in the QMC batch (default 64)")
     p.add_argument("--steps", type=int, default=50, help="optimiser steps (default 50)")
@@ -169,9 +170,9 @@ def _run_arresting(entry, args) -> Report:
         # mean criteria: experiments/results/design_feasibility.md)
         success = record(aux)[1]
         if i == 0:
-            kept["start"] = (x, j, aux)
+            kept["start"] = aux
         if "best" not in kept or (success, -j) > (kept["best"]["success"], -kept["best"]["j"]):
-            kept["best"] = dict(x=x, j=j, aux=aux, success=success, step=i)
+            kept["best"] = dict(j=j, aux=aux, success=success, step=i)
         if not args.json:
             _echo(f"  step {i:3d}  J = {j:.5f}  " + ", ".join(f"{k} = {v:.6g}" for k, v in problem.space.as_dict(x).items()))
 
@@ -181,9 +182,9 @@ def _run_arresting(entry, args) -> Report:
     else:
         hist = entry.optimise(problem, x0, steps=args.steps, learning_rate=args.lr, callback=progress)
     wall = time.perf_counter() - t0
-    before = entry.report(problem, *kept["start"])
+    before = entry.report(problem, kept["start"])
     best = kept["best"]
-    after = entry.report(problem, best["x"], best["j"], best["aux"])
+    after = entry.report(problem, best["aux"])
     out = dict(
         variables=list(problem.space.names),
         bounds=_bounds(problem.space),

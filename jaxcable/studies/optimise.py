@@ -527,7 +527,7 @@ class DesignEntry:
     optimise: Callable
     """``optimise(problem, x0, steps=, learning_rate=, callback=) -> DesignHistory`` (adam)"""
     report: Callable
-    """``report(problem, ...) -> dict``: JSON-able summary of one evaluation"""
+    """``report(problem, aux) -> dict``: JSON-able summary of one evaluation (its ``aux``)"""
     variables: Mapping
     """the catalogue: ``{name: description}`` of the variables one may choose"""
     default_variables: str
