@@ -31,8 +31,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxcable.core.math import smooth_relu
 from jaxcable.components.ale import AleCable, axial_tension_factor, strain_energy_density
+from jaxcable.components.contact import _capsule_contact
+from jaxcable.components.wind import cable_drag_element_forces
 from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.cables import CableCoords, CableRoute, CableState, CableSubsystem, graded_fractions
 from jaxcable.arresting.layout import HOOK_OF_CABLE, ArrestingLayout, span_endpoints
@@ -228,8 +229,6 @@ class AleCables(eqx.Module):
 
     def _span_drag(self, kin, t):
         """Cross-flow drag on the arresting span's elements: (element_forces (n_el, 2, 3), power [W])."""
-        from jaxcable.components.wind import cable_drag_element_forces
-
         lo, hi = self.span_slice
         a1, a2 = kin.a1[lo:hi], kin.a2[lo:hi]
         drag = cable_drag_element_forces(
@@ -416,8 +415,6 @@ class AleCables(eqx.Module):
 
 
 def _pair_law(law, hook_radius, cable_radius, h0, h1, hv0, hv1, e1, e2, v1, v2):
-    from jaxcable.components.contact import _capsule_contact
-
     res = _capsule_contact(law, h0, h1, hook_radius, hv0, hv1, e1, e2, cable_radius, v1, v2)
     return res.force_on_cable_nodes, res.force_on_hook_points, res.normal_force, res.penetration
 
@@ -478,10 +475,10 @@ def _contact_all_pairs(m, law, hook_radius, cable_radius, caps_p, caps_v, r1, r2
     zero tangent.
 
     Why: the tangent of the pair kernel costs far more than its values. Measured inside the ale
-    vector field with one state tangent (2-core AMD EPYC, JAX 0.10.2 CPU, float64; ``/tmp``
-    scripts, session 9), vector field value / JVP [us]: per cable with nested vmaps (session 7)
-    170 / 990; all 512 pairs as one flat batch 180 / 590; with this sparse JVP (m = 48) the values
-    are unchanged and the JVP drops further (see ``experiments/bench_contact_tangent.py``). XLA
+    vector field with one state tangent (2-core AMD EPYC, JAX 0.10.2 CPU, float64), vector field
+    value / JVP [us]: per cable with nested vmaps 170 / 990; all 512 pairs as one flat batch
+    180 / 590; with this sparse JVP (m = 48) the values are unchanged and the JVP drops further
+    (``docs/notes/design_call_cost.md``). XLA
     recomputes the pair kernel's shared intermediates in each of the ~80 fusions of its JVP, so
     the JVP's cost scales with the number of pairs that carry tangents."""
     return _dense_pairs(law, hook_radius, cable_radius, caps_p, caps_v, r1, r2, a1, a2)

@@ -12,13 +12,15 @@ from __future__ import annotations
 import dataclasses
 
 import diffrax
-import jax.numpy as jnp
 import numpy as np
 
-from jaxcable.core.simulate import check_solver_arguments
+from jaxcable.core.config import enable_x64
+from jaxcable.core.simulate import check_solver_arguments, simulate
 from jaxcable.core.validation import check_bool, check_choice, check_instance
 from jaxcable.arresting.buffer import BufferDevice
+from jaxcable.arresting.landing_rocket import rigid_landing_rocket
 from jaxcable.arresting.layout import ArrestingLayout, CaptureState
+from jaxcable.arresting.one_dof import OneDofParams, simulate_one_dof
 from jaxcable.arresting.passive import FIDELITY_LEVELS, G_CRITERIA, LandingCriteria, check_t_end, passive_landing_scene
 
 __all__ = ["LEVEL_DEFAULTS", "LEVEL_STEP_CONTROL", "LandingRun", "report_landing", "run_landing"]
@@ -29,14 +31,13 @@ LEVEL_DEFAULTS = {
     # not accuracy, so tightening costs little. rigid at 1e-6: 2e-7 error for 1.2x the cost of 1e-4;
     # ale/full at 1e-5: 5e-5 / 1e-6 error, at the a_max rounding sensitivity (2e-5), 1e-6 costs
     # 1.18x more. Implicit Kvaerno3/5 are 100-1000x slower on these scenes.
-    # ale/full use Bosh3 at 1e-4 (session 6). Their steps are set by stability (the fine elements'
+    # ale/full use Bosh3 at 1e-4 (docs/notes/contact_slip.md). Their steps are set by stability (the fine elements'
     # axial modes, the contact's stick creep), where a 3-stage solver covers more time per
     # evaluation than Tsit5's 6, except after the rocket stops, where they are set by accuracy.
     # Against Tsit5 at 1e-7, every output (z_max, a_max, sigma_max, stop time) is within 2.4e-4 of
     # the reference (the design case and the two-phase case of IV.A; the energy budget within 2e-5).
     # That is 20-200x below the mesh's 4-5% and the friction regularisation's 1.25%. Full design
-    # case 20.4 -> 5.5 s, two-phase full 16.2 -> 6.4 s (experiments/results/bench_contact_slip_rtol.md,
-    # docs/arresting_design.md "Session 6"). Pass rtol/atol for tighter runs, and for stiffened
+    # case 20.4 -> 5.5 s, two-phase full 16.2 -> 6.4 s (docs/notes/contact_slip.md). Pass rtol/atol for tighter runs, and for stiffened
     # variants: with 1000x stiffer, damped (beta 1e-2 s) cables, 1e-4 errs by 2.0% in sigma_max
     # (1e-5: 0.2%; tests/arresting/test_passive.py, the full level's 1-DOF limit).
     "rigid": ("tsit5", 1e-6, 1e-6, 200_000),
@@ -48,7 +49,7 @@ LEVEL_STEP_CONTROL = {
     # level: (pcoeff, icoeff) of the PID step-size controller. ale/full run at the solver's stability
     # limit (the fine elements' axial modes), where the classic I controller rejects ~25% of the
     # steps; a PI controller (0.4, 0.3) rejects ~5%: 1 s full design case 23.9k -> 19.9k attempted
-    # steps, run 25.8 -> 21.1 s, outputs equal to 2e-5 (docs/arresting_design.md, session 5).
+    # steps, run 25.8 -> 21.1 s, outputs equal to 2e-5 (docs/work_precision.md, "Defaults: what the data say").
     "rigid": (0.0, 1.0),
     "ale": (0.4, 0.3),
     "full": (0.4, 0.3),
@@ -92,8 +93,6 @@ def run_landing(
     while loop (``diffrax.ForwardMode()``), not the checkpointed loop that reverse-mode AD needs
     (measured: 0-4% less time on the full level, within the timing noise). Differentiable runs:
     :func:`jaxcable.core.simulate` on :func:`passive_landing_scene`."""
-    from jaxcable.core.config import enable_x64
-
     enable_x64()
     check_choice("fidelity", fidelity, FIDELITY_LEVELS)
     check_instance("capture", capture, CaptureState, allow_none=True)
@@ -108,7 +107,6 @@ def run_landing(
     buffer = BufferDevice() if buffer is None else buffer
     if fidelity == "1dof":
         return _run_one_dof(capture, layout, buffer, t_end_s, criteria)
-    from jaxcable.core.simulate import simulate
 
     scene = passive_landing_scene(fidelity, capture, layout, buffer, t_end_s=t_end_s, **scene_kwargs)
     d_solver, d_rtol, d_atol, d_steps = LEVEL_DEFAULTS[fidelity]
@@ -140,8 +138,6 @@ def _budget_at_end(ts, energy):
 
 
 def _run_one_dof(capture, layout, buffer, t_end_s, criteria):
-    from jaxcable.arresting.one_dof import OneDofParams, simulate_one_dof
-
     lateral = {
         k: float(getattr(capture, k))
         for k in ("x_m", "y_m", "vx_m_s", "vy_m_s", "theta_x_deg", "theta_y_deg", "omega_x_deg_s", "omega_y_deg_s")
@@ -152,7 +148,6 @@ def _run_one_dof(capture, layout, buffer, t_end_s, criteria):
             f"fidelity '1dof' models the vertical central landing only; got nonzero {lateral}: "
             "use --fidelity rigid, ale or full"
         )
-    from jaxcable.arresting.landing_rocket import rigid_landing_rocket
 
     params = OneDofParams(
         m_r=rigid_landing_rocket(hinged_hooks=False).total_mass_kg,  # same mass as the other levels

@@ -45,8 +45,11 @@ from jaxcable.core.validation import (
 from jaxcable.core.scene import AbstractScene
 from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.cable_sets import AleCables, HookPoints, MasslessCables, throat_weights
+from jaxcable.arresting.landing_rocket import flexible_landing_rocket, rigid_landing_rocket
 from jaxcable.arresting.layout import ArrestingLayout, CaptureState, check_hooks_inside_frame
-from jaxcable.components.wind import AeroCoefficients, WindField
+from jaxcable.components.contact import ContactLaw
+from jaxcable.components.multibody import point_kinematics
+from jaxcable.components.wind import AeroCoefficients, WindField, rocket_aero_loads
 
 __all__ = [
     "FIDELITY_LEVELS",
@@ -201,9 +204,6 @@ class PassiveLandingScene(AbstractScene):
 
     def _rocket_aero(self, t, rocket_state):
         """Aerodynamic point loads on the rocket, their resultant [N] and power [W]."""
-        from jaxcable.components.multibody import point_kinematics
-        from jaxcable.components.wind import rocket_aero_loads
-
         if self.wind is None:
             return (), jnp.zeros(3), jnp.zeros(())
         loads = rocket_aero_loads(self.rocket, rocket_state, self.wind, t + self.wind_time_offset_s, self.aero)
@@ -390,8 +390,6 @@ scenes unless a ``contact`` law is given (``v_d = 2.5 v_s``; reasons in :func:`p
 def scene_contact_law(v_s_m_s: float = DEFAULT_CONTACT_SLIP_M_S):
     """The scenes' hook-cable contact law (:class:`.contact.ContactLaw` defaults) with static slip
     speed ``v_s`` [m/s] and dynamic slip speed ``v_d = 2.5 v_s``."""
-    from jaxcable.components.contact import ContactLaw
-
     return ContactLaw(v_s=v_s_m_s, v_d=2.5 * v_s_m_s)
 
 
@@ -436,7 +434,7 @@ def passive_landing_scene(
       damping makes the highest element modes decay at ``beta omega^2``; with 0.75 m elements
       (omega ~ 2.4e4 rad/s) beta = 1e-4 s cut the explicit step to 7 us (43k steps per 0.3 s).
       Low beta leaves the cable-counterweight mode (~30 rad/s) almost undamped, and a_max depends
-      strongly on it (see the README's sensitivity table): a modelling uncertainty of the paper.
+      strongly on it (see docs/arresting.md, "Findings worth knowing"): a modelling uncertainty of the paper.
     * contact friction: Coulomb with the STEP law, static regime regularised over
       ``v_s = 0.5`` m/s (``v_d = 1.25`` m/s): the stick "creep" damping ``1.5 mu_s f_n / v_s`` on a
       ~3 kg cable node at the hook is the stiffest rate of the model once the hook load has grown
@@ -446,8 +444,8 @@ def passive_landing_scene(
       other and a_max within 0.5% (the ringing peak's own spread); 1.0 m/s moves a_max by 1.7%.
       In the passive phase of the two-phase deviated case (13 m off centre, the cables slide far over
       the hooks) 0.5 m/s lowers sigma_max by 1.25% against 0.05 m/s (0.2 m/s: 0.5%).
-      0.5 m/s halves the steps against 0.2 m/s (session 6, ``experiments/bench_contact_slip.py``;
-      session 2 had chosen 0.2 m/s on 0.3 s landings, before the hook load grows).
+      0.5 m/s halves the steps against 0.2 m/s (``docs/notes/contact_slip.md``; 0.3 s landings end
+      before the hook load grows and do not show the difference).
     * 16 span elements, 8 of them over +-3 m around each hook (0.75 m), 2 per tower.
 
     ``frame_centre_xy`` (2,) [m]: centre of the capture frame (the sliders' positions) at capture;
@@ -461,8 +459,6 @@ def passive_landing_scene(
     samples, default None): the saved grid when :func:`jaxcable.core.simulate` gets no ``save_ts``
     (:meth:`PassiveLandingScene.default_save_ts`); the maxima a_max and sigma_max are taken over it.
     """
-    from jaxcable.arresting.landing_rocket import flexible_landing_rocket, rigid_landing_rocket
-
     check_choice("fidelity", fidelity, FIDELITY_LEVELS)
     if fidelity == "1dof":
         raise ValueError("fidelity '1dof' has no scene: run it with run_landing('1dof')")

@@ -138,6 +138,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxcable.components.multibody import body_poses, point_kinematics
 from jaxcable.core.math import safe_norm, safe_normalize
 from jaxcable.core.validation import _concrete, check_finite, check_positive, check_range, check_seed
 from jaxcable.core.validation import as_float_array
@@ -534,8 +535,6 @@ def rocket_aero_loads(rocket, rocket_state, wind: WindField, t, params: AeroCoef
     exactly eq 44's ``C q S_ref`` totals; the planform of an element is ``2 R_r l``. The hooks are not
     loaded (module docstring).
     """
-    from jaxcable.components.multibody import body_poses, point_kinematics
-
     bodies, local, element = rocket_aero_points(rocket, params.rocket_elements_per_body)
     nb = rocket.n_bodies
     x, v = point_kinematics(rocket.system, rocket_state, bodies, local)

@@ -20,6 +20,7 @@ from __future__ import annotations
 import abc
 
 import equinox as eqx
+import jax.numpy as jnp
 
 
 class AbstractScene(eqx.Module):
@@ -47,14 +48,10 @@ class AbstractScene(eqx.Module):
 
     def default_save_ts(self, t1):
         """Times of the probe histories when the caller gives none [s]."""
-        import jax.numpy as jnp
-
         return jnp.linspace(0.0, t1, 101)
 
     def default_snapshot_ts(self, t1):
         """Times of the snapshots when the caller gives none [s]."""
-        import jax.numpy as jnp
-
         return jnp.reshape(jnp.asarray(t1, dtype=float), (1,))
 
     def probe(self, t, state):
