@@ -35,7 +35,7 @@ model conserves energy exactly, so a landing's energy budget closes. Mass is con
 end material coordinates are fixed, so ``rhoA (s_end - s_start)`` is constant whatever flows over
 the pulleys.
 
-How the vector field is computed (issue 6: it is evaluated ~10^5 times per landing, and on a CPU
+How the vector field is computed (it is evaluated ~10^5 times per landing, and on a CPU
 its cost is the number of kernels XLA launches, not flops). The kinematics of a state (nodes,
 element tangents, strains, material velocities) are computed once (:meth:`CableSubsystem.kinematics`)
 and shared by the forces, the contact (:mod:`jaxcable.arresting.cable_sets`), the dissipation and the
@@ -585,7 +585,7 @@ class CableSubsystem(eqx.Module):
         # The slow blocks (M_ss, the Schur complement, its right-hand side) sum over every element: one
         # dot each. As multiply-sums, XLA's CPU backend compiled them to library ("ynn") fusions that
         # took most of the ale vector field (47 + 16 us of ~76 us; with two tangents 160 + 50 + 40 us;
-        # experiments/profile_kernels.py, session 12). Their left operands are built with the slow
+        # docs/notes/kernel_profiles.md). Their left operands are built with the slow
         # axis first, (n_slow, n_el, 3), elementwise: read from G1 (n_el, 3, n_slow), the dot first
         # made a transposing copy (12 us each with two tangents; without it the ale forward call was 7%
         # faster on the mean of five alternating runs, about this machine's noise).
@@ -611,7 +611,7 @@ class CableSubsystem(eqx.Module):
             # L_j the span's material length and That_j the tridiagonal of its material fractions
             # (constant in time), so its inverse is a scaled constant matrix: one small matmul per
             # evaluation, and the inverse itself depends only on parameters, so XLA hoists it out of
-            # the solver's loop (no LAPACK call per evaluation; measured in bench_ale_speed.py).
+            # the solver's loop (no LAPACK call per evaluation; measured in docs/notes/ale_vector_field.md).
             n_int = internal.size
             sb = route.boundary_s(q)
             span_length = jnp.concatenate(

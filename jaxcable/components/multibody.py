@@ -46,7 +46,7 @@ Systems without hinges (the rigid and ale levels' rocket, hooks welded) skip the
 every speed is a body's own ``v`` or ``omega_body``, ``M = diag(m I, J)`` is constant, and the
 equations are Newton-Euler body by body (:func:`_free_body_accelerations`; same values and tangents
 as the general path to round-off, tested). It halves the XLA kernels of the rocket's derivative,
-which is what a batched design gradient pays for (``experiments/bench_free_body.py``).
+which is what a batched design gradient pays for (``docs/notes/design_call_cost.md``).
 
 Body indices: free bodies are ``0 .. nb-1``, hinge children ``nb .. nb+nh-1``. Each body's *local
 points* are measured from its centre of mass, in its own frame.

@@ -154,8 +154,8 @@ def probes_after_solve(scene) -> bool:
     probe's output, so the saved buffer does not grow.
 
     The two give the same histories (the probe of the same interpolated state; round-off apart).
-    Measured side by side (``python experiments/bench_probes.py``, 2-core AMD EPYC, JAX 0.10.2
-    CPU, float64; ``experiments/results/bench_probes.md``): on the rigid landing level, whose
+    Measured side by side (2-core AMD EPYC, JAX 0.10.2 CPU, float64;
+    ``docs/notes/design_call_cost.md``): on the rigid landing level, whose
     25-number state is smaller than its 29-number probe, the design batch (1201 saved samples)
     runs 1.14x faster forward, 1.16-1.33x in forward mode and 1.07-1.09x in reverse mode
     (n = 8, 32), with the same results to 1e-13: the probe (a vector-field evaluation plus the

@@ -6,9 +6,9 @@ Build it with :func:`line_throwing_scene` (the calibrated defaults) and run it w
 (:class:`SegmentRope`), ``launch`` (:class:`Launch`) and ``forces`` (a tuple of force components);
 leave a force out to model less.
 
-Calibrated defaults (see ``experiments/calibrate_throw.py`` and the README): the paper gives no drag
-coefficients, rope diameter or pull-out force; three scalars were fitted to the 30 deg flight test
-(Table 3 test row and the radar speeds at 1-4 s). ``CALIBRATION`` records them.
+Calibrated defaults (see ``experiments/calibrate_throw.py`` and ``docs/throw.md``, "Calibration"):
+the paper gives no drag coefficients, rope diameter or pull-out force; three scalars were fitted to
+the 30 deg flight test (Table 3 test row and the radar speeds at 1-4 s). ``CALIBRATION`` records them.
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ from jaxcable.components.rope import (
 )
 from jaxcable.core.scene import AbstractScene
 
-# Fitted to the 30 deg flight test by experiments/calibrate_throw.py (see README "Calibration").
+# Fitted to the 30 deg flight test by experiments/calibrate_throw.py (see docs/throw.md, "Calibration").
 CALIBRATION = {
     "rocket_drag_coefficient": 0.2709,
     "rope_drag_coefficient": 0.02332,
@@ -42,7 +42,7 @@ CALIBRATION = {
     "note": (
         "optax Adam, 30 steps in log space, 2 m segments, tsit5 rtol 1e-5; residuals at 1 m: range -1.6%, "
         "v_max +5.2%, flight time +6.7%, v(1..4 s) -5.1/-1.6/+0.5/+1.1% (experiments/results/calibration.json). "
-        "The printed 0.43 kg/m cannot reach the measured speeds (README, Physical sanity)."
+        "The printed 0.43 kg/m cannot reach the measured speeds (docs/throw.md, Physical sanity)."
     ),
 }
 
