@@ -8,7 +8,11 @@ the outputs need anyway, so implicit solvers buy nothing there (see ``experiment
 
 from __future__ import annotations
 
+import contextlib
+import threading
+
 import equinox as eqx
+import equinox._errors as _eqx_errors
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -183,6 +187,32 @@ def _probe_saved_states(scene, ts, ys, t_final, final_state):
     )
 
 
+_ON_ERROR_LOCK = threading.Lock()
+
+
+@contextlib.contextmanager
+def _grid_checks_without_callbacks():
+    """Trace diffrax's checks of the save grids (increasing, inside [t0, t1]) as NaN-on-failure
+    instead of host callbacks.
+
+    Why: ``eqx.error_if`` on a traced value becomes a ``jax.pure_callback`` in the compiled program,
+    and JAX never writes a program holding a host callback to its persistent compilation cache, so
+    every process compiled the whole solve again (experiments/results/bench_startup.md). diffrax
+    multiplies the grid by the traced integration direction before checking it, so the checks are
+    traced whatever the grid. :func:`simulate` checks every grid it is given on the host
+    first (``_check_times``), and the scenes' default grids are increasing inside [0, t1] by
+    construction, so these checks can never fire for a concrete grid. With ``diffeqsolve(...,
+    throw=False)`` (as here) the solve's own failures are reported through ``Result.status``
+    either way. equinox reads this mode from a module global, so it is set under a lock."""
+    with _ON_ERROR_LOCK:
+        previous = _eqx_errors.EQX_ON_ERROR
+        _eqx_errors.EQX_ON_ERROR = "nan"
+        try:
+            yield
+        finally:
+            _eqx_errors.EQX_ON_ERROR = previous
+
+
 def _solve(scene, t1, save_ts, snapshot_ts, solver, controller, adjoint, max_steps, dt0, progress_meter, probes_after):
     term = diffrax.ODETerm(lambda t, y, args: scene.vector_field(t, y))
     after = probes_after_solve(scene) if probes_after is None else probes_after
@@ -202,21 +232,22 @@ def _solve(scene, t1, save_ts, snapshot_ts, solver, controller, adjoint, max_ste
             lambda t, y, args, **kw: scene.terminal_event(t, y),
             root_finder=optx.Newton(rtol=tol, atol=tol),
         )
-    sol = diffrax.diffeqsolve(
-        term,
-        solver,
-        t0=0.0,
-        t1=t1,
-        dt0=dt0,
-        y0=scene.initial_state(),
-        saveat=diffrax.SaveAt(subs=subs),
-        stepsize_controller=controller,
-        adjoint=adjoint,
-        event=event,
-        max_steps=max_steps,
-        throw=False,
-        progress_meter=progress_meter,
-    )
+    with _grid_checks_without_callbacks():
+        sol = diffrax.diffeqsolve(
+            term,
+            solver,
+            t0=0.0,
+            t1=t1,
+            dt0=dt0,
+            y0=scene.initial_state(),
+            saveat=diffrax.SaveAt(subs=subs),
+            stepsize_controller=controller,
+            adjoint=adjoint,
+            event=event,
+            max_steps=max_steps,
+            throw=False,
+            progress_meter=progress_meter,
+        )
     probes, snaps, final = sol.ys
     t_final = sol.ts[2][0]
     final_state = jax.tree_util.tree_map(lambda x: x[0], final)
