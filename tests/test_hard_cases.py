@@ -1,4 +1,4 @@
-"""Hard cases for numerical stability (issue 6, "Stability on hard cases").
+"""Hard cases for numerical stability.
 
 Each case asserts finite results, a reported solver status (a status code/message, never a silent
 NaN), the physical check that fits it (an energy budget with dissipation, momentum, free fall, a

@@ -1,4 +1,4 @@
-"""Peer cross-check (issue 6): jaxcable's finite-segment chain against an independent derivation in
+"""Peer cross-check: jaxcable's finite-segment chain against an independent derivation in
 PyDy / sympy.physics.mechanics ``KanesMethod`` (integrated with scipy), on the same trajectory.
 
 Runs only where the optional peers are installed (``pip install -e ".[peers]"``); CI does not

@@ -60,13 +60,13 @@ def test_full_level_converges_to_one_dof_with_stiff_massless_cables_and_stiff_ho
     taken to zero (the massless cable component), 1000x stiffer damped cables and 100x stiffer
     hook springs, reproduce the 1-DOF model to 1% (measured 0.07-0.34% at rtol 1e-5). The 1-DOF model has no
     cable mass and no hook compliance: with Table 1's hook spring (1.5e5 N/m) the hooks' rotation
-    under load adds stroke (z_max +1.2%, a_max -1.3%, stop time +3.6%, measured in session 6), and
+    under load adds stroke (z_max +1.2%, a_max -1.3%, stop time +3.6%, measured), and
     the ALE cable's own mass has kinetic energy of the counterweights' order (docs/arresting_design.md)."""
     from jaxcable.arresting.landing_rocket import LandingRocketParams
 
     # rtol 1e-5, not the level's 1e-4: the 1000x stiffer, damped cables are a stiffer problem than the
     # default scene, and at 1e-4 Bosh3's error in sigma_max (which carries the damping force
-    # EA beta eps_dot) is 2.0% there (measured in session 6), against 2.4e-4 on the default scenes
+    # EA beta eps_dot) is 2.0% there (measured), against 2.4e-4 on the default scenes
     run = run_landing(
         "full", cable_model="massless", layout=ArrestingLayout(EA_N=2.64e11), cable_damping_s=1e-2,
         rocket_params=LandingRocketParams(hook_stiffness_N_per_m=1.5e7), t_end_s=1.0, rtol=1e-5, atol=1e-5,

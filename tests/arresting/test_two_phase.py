@@ -167,7 +167,7 @@ def test_reverse_mode_gradient_equals_forward_mode():
 
 @pytest.mark.parametrize("scenario", ["I", "II", "III"])
 def test_tracking_converges_under_noise_and_delay_for_each_scenario(scenario):
-    """Issue 4: the frame's tracking error converges for each scenario's gain a_p (Table 4), with the
+    """The frame's tracking error converges for each scenario's gain a_p (Table 4), with the
     deviated case's dead time (0.1 s) and measurement noise (0.1 m RMS) and eq 8's printed motor
     bandwidth (1 /s). The reference is the geometry, not our own run: the error starts at the 18.4 m
     lateral offset of the deviated case (13 m, 13 m) and must fall below one tenth of it, then stay
