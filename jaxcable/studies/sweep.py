@@ -35,6 +35,9 @@ import equinox as eqx
 import jax
 import numpy as np
 
+from jaxcable.core.config import enable_x64
+from jaxcable.core.provenance import __version__
+from jaxcable.core.simulate import status_message
 from jaxcable.core.validation import check_positive
 from jaxcable.studies.sharding import device_mesh, evaluate, round_up
 
@@ -231,7 +234,6 @@ def merge_sweep_csvs(paths: Sequence, out) -> dict:
 
 
 def _status_text(code: int) -> str:
-    from jaxcable.core.simulate import status_message
 
     return status_message(code).replace(",", ";").replace("\n", " ")
 
@@ -279,8 +281,6 @@ def run_sweep(
     roundoff and may differ on resume.
     ``on_chunk(case_indices)`` is called after each chunk is durable (logging, tests).
     """
-    from jaxcable.core.config import enable_x64
-    from jaxcable.core.provenance import __version__
 
     enable_x64()
     check_positive("batch_size", batch_size)
@@ -402,7 +402,6 @@ def _jsonable(x):
 
 def run_histories(case_fn: AbstractCaseFunction, samples: dict, indices, *, devices=None) -> dict:
     """Time histories (``case_fn.histories``) of the cases ``indices`` in one batch: {name: (k, n_save)}."""
-    from jaxcable.core.config import enable_x64
 
     enable_x64()
     indices = np.asarray(indices, dtype=int)
