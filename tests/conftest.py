@@ -1,19 +1,34 @@
 """Test configuration: float64 physics for every test (the package itself never flips it on import),
-and compiled code released after each test module.
+one on-disk compilation cache for the whole run, and compiled code released when a worker holds too
+much of it.
 
-Why the release: XLA's CPU backend maps each compiled executable's code into the process in many
-small memory mappings, and a process may hold at most ``vm.max_map_count`` of them (65530 by
+**Compilation cache.** Every process of a run (the pytest-xdist workers, the command lines the
+tests start, the notebooks' kernels) reads and writes one folder of JAX's persistent compilation
+cache, so a program compiled once in the run is read back instead of compiled again: by the other
+worker, by a command line that runs what a test ran, and after ``jax.clear_caches()`` (below). The
+folder is ``$JAXCABLE_TEST_CACHE_DIR`` when set (kept between runs: later runs read it back), else a
+new temporary folder that is removed at the end, so that a run starts cold, as on a fresh machine.
+``JAXCABLE_NO_CACHE=1`` turns it off. Programs holding host callbacks are never written (JAX's
+rule), so a solve through plain ``diffrax.diffeqsolve`` is compiled again each time; the jitted
+solves of ``jaxcable.simulate`` are written.
+
+**Memory mappings.** XLA's CPU backend maps each compiled executable's code into the process in
+many small memory mappings, and a process may hold at most ``vm.max_map_count`` of them (65530 by
 default on Linux). A pytest-xdist worker runs half the suite's files in one process, and JAX keeps
-every executable it compiled: measured here, ``tests/arresting/test_two_phase.py`` alone leaves
-17,858 mappings, with ``tests/test_sweep_two_phase.py`` 27,724. Past the limit the process dies of a
-segmentation fault in XLA's compilation or execution: seen once in a full run (session 13: a worker
-died in ``backend_compile_and_load`` and pytest-xdist then waited forever), and reproduced by
-lowering the limit (``sysctl vm.max_map_count=15000``: ``test_two_phase.py`` segfaults in its 9th
-test). ``jax.clear_caches()`` drops the executables (17,858 -> 764 mappings); with it after each
-module the two files above end at 1,231, and three heavy files pass under a limit of 30,000."""
+every executable it compiled: ``tests/arresting/test_two_phase.py`` alone leaves 17,858 mappings,
+``tests/test_sweep_two_phase.py`` 27,724. Past the limit the process dies of a segmentation fault
+in XLA's compilation or execution (seen once in a full run, after which pytest-xdist waited
+forever; reproduced with ``sysctl vm.max_map_count=15000``: ``test_two_phase.py`` segfaults in its
+9th test). ``jax.clear_caches()`` drops the executables (17,858 -> 764 mappings). It is called after
+a test module that leaves the process above ``CLEAR_ABOVE_MAPPINGS``: below that, the next module
+(at most ~28,000 more) cannot reach the limit, and it keeps what later modules compile again (the
+jitted ``simulate`` of the same scene structure) without tracing it again."""
 
+import atexit
 import gc
 import os
+import shutil
+import tempfile
 import warnings
 
 os.environ.setdefault("MPLBACKEND", "Agg")
@@ -23,9 +38,37 @@ import pytest  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
 
+from jaxcable.core.config import CACHE_DIR_ENV, cache_disabled_by_env, enable_compilation_cache  # noqa: E402
+
+TEST_CACHE_ENV = "JAXCABLE_TEST_CACHE_DIR"
+"""Environment variable naming the run's compilation-cache folder: set by you to keep the cache
+between runs, else by the first pytest process of a run (its xdist workers inherit it)."""
+
+CLEAR_ABOVE_MAPPINGS = 20_000
+"""``jax.clear_caches()`` after a test module that leaves more memory mappings than this: the
+heaviest module adds ~28,000, so the next one ends below ~48,000 of the 65,530 allowed."""
+
 MAPPINGS_WARNING = 45_000
 """Warn when a test module ends with more memory mappings than this (the kernel's default limit is
 65530): that module alone compiles enough to need splitting."""
+
+
+def _run_cache_folder() -> str | None:
+    if cache_disabled_by_env():
+        return None
+    folder = os.environ.get(TEST_CACHE_ENV)
+    if not folder:
+        folder = tempfile.mkdtemp(prefix="jaxcable-test-cache-")
+        os.environ[TEST_CACHE_ENV] = folder
+        atexit.register(shutil.rmtree, folder, ignore_errors=True)  # the process that made it
+    return folder
+
+
+_CACHE = _run_cache_folder()
+if _CACHE is not None:
+    enable_compilation_cache(_CACHE)
+    # the command lines that tests start read and write the same folder (never the user's ~/.cache)
+    os.environ[CACHE_DIR_ENV] = _CACHE
 
 
 def _mappings() -> int | None:
@@ -46,5 +89,6 @@ def _release_compiled_code(request):
             "default): compiled code nearly exhausts it",
             stacklevel=1,
         )
-    jax.clear_caches()
-    gc.collect()
+    if count is None or count > CLEAR_ABOVE_MAPPINGS:
+        jax.clear_caches()
+        gc.collect()

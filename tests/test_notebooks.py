@@ -6,14 +6,32 @@ files a notebook writes end up in the repository. Needs ``nbclient``,
 (``python -m ipykernel install --user`` if ``jupyter kernelspec list`` shows none).
 """
 
+import os
 import shutil
 from pathlib import Path
 
 import pytest
 
+from jaxcable.core.config import cache_disabled_by_env
+
 NOTEBOOK_DIR = Path(__file__).resolve().parent.parent / "notebooks"
 NOTEBOOKS = sorted(p for p in NOTEBOOK_DIR.rglob("*.ipynb") if ".ipynb_checkpoints" not in p.parts)
 CELL_TIMEOUT_S = 900
+
+
+def _kernel_environment() -> dict:
+    """This process's environment plus JAX's compilation-cache settings for the run's cache folder
+    (``tests/conftest.py``): a notebook does not turn the cache on itself, and its kernel then reads
+    back what the tests (and the other notebooks) compiled."""
+    env = dict(os.environ)
+    folder = env.get("JAXCABLE_TEST_CACHE_DIR")
+    if folder and not cache_disabled_by_env():
+        env.update(
+            JAX_COMPILATION_CACHE_DIR=folder,
+            JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS="0",
+            JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES="-1",
+        )
+    return env
 
 
 @pytest.mark.slow
@@ -34,7 +52,7 @@ def test_notebook_runs(path, tmp_path):
         kernel_name="python3",
         resources={"metadata": {"path": str(copy_dir)}},
     )
-    client.execute()  # raises CellExecutionError with the failing cell's traceback
+    client.execute(env=_kernel_environment())  # raises CellExecutionError with the failing cell's traceback
     errors = [
         out
         for cell in nb.cells
