@@ -1,6 +1,6 @@
 """Test configuration: float64 physics for every test (the package itself never flips it on import),
 one on-disk compilation cache for the whole run, and compiled code released when a worker holds too
-much of it.
+much of it, and the longest test files first.
 
 **Compilation cache.** Every process of a run (the pytest-xdist workers, the command lines the
 tests start, the notebooks' kernels) reads and writes one folder of JAX's persistent compilation
@@ -22,7 +22,13 @@ forever; reproduced with ``sysctl vm.max_map_count=15000``: ``test_two_phase.py`
 9th test). ``jax.clear_caches()`` drops the executables (17,858 -> 764 mappings). It is called after
 a test module that leaves the process above ``CLEAR_ABOVE_MAPPINGS``: below that, the next module
 (at most ~28,000 more) cannot reach the limit, and it keeps what later modules compile again (the
-jitted ``simulate`` of the same scene structure) without tracing it again."""
+jitted ``simulate`` of the same scene structure) without tracing it again.
+
+**Order.** ``pytest`` runs one test file per worker at a time (``--dist loadfile``), handing out the
+files in collection order (``--no-loadscope-reorder``: pytest-xdist would otherwise order them by
+their number of tests, not their cost). The files of ``LONGEST_FIRST`` come first, longest first, so
+that the two workers of a 2-core machine finish together instead of one waiting for the other's
+last long file."""
 
 import atexit
 import gc
@@ -51,6 +57,40 @@ heaviest module adds ~28,000, so the next one ends below ~48,000 of the 65,530 a
 MAPPINGS_WARNING = 45_000
 """Warn when a test module ends with more memory mappings than this (the kernel's default limit is
 65530): that module alone compiles enough to need splitting."""
+
+
+LONGEST_FIRST = (
+    # CPU seconds of each file run alone (-n 0; Intel Xeon 2.5 GHz), longest first
+    "tests/test_throw_scene.py",
+    "tests/arresting/test_two_phase.py",
+    "tests/test_notebooks.py",
+    "tests/arresting/test_passive.py",
+    "tests/test_simulate.py",
+    "tests/test_design_ale.py",
+    "tests/test_design.py",
+    "tests/test_sweep_two_phase.py",
+    "tests/test_sweep.py",
+    "tests/test_hard_cases.py",
+    "tests/arresting/test_multibody.py",
+    "tests/test_contact_tangent.py",
+    "tests/test_segments.py",
+    "tests/arresting/test_control.py",
+)
+"""Test files that run first, in this order; every other file follows in collection order."""
+
+
+def pytest_collection_modifyitems(session, config, items):
+    rank = {name: i for i, name in enumerate(LONGEST_FIRST)}
+    root = config.rootpath
+
+    def key(item):
+        try:
+            name = item.path.relative_to(root).as_posix()
+        except ValueError:
+            name = ""
+        return rank.get(name, len(rank))
+
+    items.sort(key=key)  # stable: the order inside a file and among the other files is kept
 
 
 def _run_cache_folder() -> str | None:

@@ -9,8 +9,8 @@ below the number of touching pairs (so the comparison can fail)."""
 
 import dataclasses
 
+import equinox as eqx
 import jax
-import jax.numpy as jnp
 import numpy as np
 import pytest
 
@@ -31,27 +31,35 @@ def mid_landing():
     return base, y, direction
 
 
+# Compiled once per cable structure (``contact_tangent_pairs`` is static) and shared by the tests;
+# everything else is NumPy, so no test compiles an operation at a time.
+_touching = eqx.filter_jit(lambda scene, y: scene.probe(T_STATE, y)["contact_pairs_touching"])
+_vector_field = eqx.filter_jit(lambda scene, y: scene.vector_field(T_STATE, y))
+_jvp = eqx.filter_jit(lambda scene, y, d: jax.jvp(lambda y_: scene.vector_field(T_STATE, y_), (y,), (d,)))
+_vjp = eqx.filter_jit(lambda scene, y, c: jax.vjp(lambda y_: scene.vector_field(T_STATE, y_), y)[1](c)[0])
+
+
 def _with(scene, m):
     return dataclasses.replace(scene, cables=dataclasses.replace(scene.cables, contact_tangent_pairs=m))
 
 
 def _jvp_vjp(scene, y, direction, vjp=True):
-    vf = lambda y_: scene.vector_field(T_STATE, y_)  # noqa: E731
-    value, tangent = jax.jit(lambda a, b: jax.jvp(vf, (a,), (b,)))(y, direction)
-    cotangent = jax.jit(lambda a, c: jax.vjp(vf, a)[1](c)[0])(y, direction) if vjp else None
+    value, tangent = _jvp(scene, y, direction)
+    cotangent = _vjp(scene, y, direction) if vjp else None
     return value, tangent, cotangent
 
 
 def _max_rel(a, b):
-    la, lb = jax.tree_util.tree_leaves(a), jax.tree_util.tree_leaves(b)
-    scale = max(float(jnp.max(jnp.abs(x))) for x in la if x.size)
-    return max(float(jnp.max(jnp.abs(x - z))) for x, z in zip(la, lb) if x.size) / scale
+    la = [np.asarray(x) for x in jax.tree_util.tree_leaves(a)]
+    lb = [np.asarray(x) for x in jax.tree_util.tree_leaves(b)]
+    scale = max(float(np.max(np.abs(x))) for x in la if x.size)
+    return max(float(np.max(np.abs(x - z))) for x, z in zip(la, lb) if x.size) / scale
 
 
 def test_sparse_contact_derivative_equals_all_pairs_and_finite_differences(mid_landing):
     base, y, direction = mid_landing
     assert base.cables.contact_tangent_pairs == 48  # the default
-    touching = int(base.probe(T_STATE, y)["contact_pairs_touching"])
+    touching = int(_touching(base, y))
     assert 0 < touching <= 48
     v_all, t_all, c_all = _jvp_vjp(_with(base, None), y, direction)
     v_48, t_48, c_48 = _jvp_vjp(base, y, direction)
@@ -59,10 +67,10 @@ def test_sparse_contact_derivative_equals_all_pairs_and_finite_differences(mid_l
     assert _max_rel(t_all, t_48) < 1e-12
     assert _max_rel(c_all, c_48) < 1e-12
     # independent: central differences of the vector field along the same direction
-    vf = jax.jit(lambda y_: base.vector_field(T_STATE, y_))
     h = 1e-7
-    step = lambda s: jax.tree_util.tree_map(lambda a, d: a + s * h * d, y, direction)  # noqa: E731
-    fd = jax.tree_util.tree_map(lambda p, m: (p - m) / (2 * h), vf(step(1.0)), vf(step(-1.0)))
+    step = lambda s: jax.tree_util.tree_map(lambda a, d: np.asarray(a) + s * h * np.asarray(d), y, direction)  # noqa: E731
+    up, down = _vector_field(base, step(1.0)), _vector_field(base, step(-1.0))
+    fd = jax.tree_util.tree_map(lambda p, m: (np.asarray(p) - np.asarray(m)) / (2 * h), up, down)
     # measured 2.8e-8 of the largest component at h = 1e-7 (2.8e-6 at h = 1e-6: the truncation
     # error of the stiff contact, ~h^2; round-off ~eps/h is 1e-9)
     assert _max_rel(t_48, fd) < 1e-6
@@ -72,7 +80,7 @@ def test_too_few_tangent_pairs_break_the_derivative(mid_landing):
     """The comparison above can fail: with M below the number of touching pairs the dropped pairs'
     derivative is missing (the values stay exact)."""
     base, y, direction = mid_landing
-    touching = int(base.probe(T_STATE, y)["contact_pairs_touching"])
+    touching = int(_touching(base, y))
     v_all, t_all, _ = _jvp_vjp(_with(base, None), y, direction, vjp=False)
     v_few, t_few, _ = _jvp_vjp(_with(base, max(1, touching // 2)), y, direction, vjp=False)
     assert _max_rel(v_all, v_few) == 0.0
