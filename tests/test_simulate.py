@@ -55,8 +55,9 @@ def test_rigid_landing_same_gradient(rigid_scene):
         return smooth_landing_outputs(res.ts, res.probes)["a_max_g"]
 
     m_w = jnp.asarray(920.0)
-    g_in = jax.grad(soft_a_max)(m_w, False)
-    g_after = jax.grad(soft_a_max)(m_w, True)
+    grad = jax.jit(jax.grad(soft_a_max), static_argnums=1)  # one program each (eager: 1.3x the CPU time)
+    g_in = grad(m_w, False)
+    g_after = grad(m_w, True)
     assert np.isfinite(float(g_after)) and abs(float(g_after)) > 0
     np.testing.assert_allclose(float(g_after), float(g_in), rtol=1e-7)
 
@@ -81,7 +82,7 @@ def test_unreached_saves_stay_inf_and_gradient_finite():
         res = simulate(with_angle(scene, angle), 40.0, save_ts=save_ts, probes_after=True)
         return jnp.sum(jnp.where(jnp.isfinite(res.ts), res.probes.position[:, 1], 0.0))
 
-    g = jax.grad(summed_height)(scene.launch.angle_rad)
+    g = jax.jit(jax.grad(summed_height))(scene.launch.angle_rad)
     assert np.isfinite(float(g))
 
 

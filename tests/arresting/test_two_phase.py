@@ -117,8 +117,27 @@ def test_bad_input_names_the_field():
         two_phase_outputs(tracking_scene(), "1dof")
 
 
+GAIN_PER_S = 2.0  # a_p of the derivative checks
+
+
+def _gain_outputs(a_p, adjoint):
+    """(smooth capture margin [m], smooth a_max [g]) of the deviated case in still air without noise
+    as functions of the gain ``a_p`` [1/s]: phase 1, its event time and a 1 s passive phase."""
+    sc = tracking_scene(deviated_case(), gain_per_s=a_p, noise_rms_m=0.0, wind_speed_m_s=0.0)
+    o = two_phase_outputs(sc, "rigid", BufferDevice(), passive_t_end_s=1.0, adjoint=adjoint)
+    return jnp.stack([o["smooth_capture_margin_m"], o["smooth_a_max_g"]])
+
+
+@pytest.fixture(scope="module")
+def forward_jacobian():
+    """d(_gain_outputs)/d a_p by forward mode (``diffrax.ForwardMode``), compiled once for the two
+    derivative tests below."""
+    jac = eqx.filter_jit(jax.jacfwd(lambda a: _gain_outputs(a, diffrax.ForwardMode())))(jnp.asarray(GAIN_PER_S))
+    return np.asarray(jac)
+
+
 @pytest.mark.slow
-def test_gradients_wrt_gain_match_finite_differences():
+def test_gradients_wrt_gain_match_finite_differences(forward_jacobian):
     """d(smooth capture margin)/d a_p and d(smooth a_max)/d a_p through both solves and the event
     time, forward mode (diffrax.ForwardMode), against central differences (float64).
 
@@ -127,42 +146,24 @@ def test_gradients_wrt_gain_match_finite_differences():
     adaptive solve are noisy when a step changes: measured at h = 1e-2 / 1e-3 / 1e-4 / 1e-5 the
     margin's difference quotient was 0.2215 / 0.2210 / 0.2285 / 0.2201 (AD: 0.2214), hence h = 1e-2
     and 1% tolerance."""
-    terminal = deviated_case()
-
-    def f(a_p):
-        sc = tracking_scene(terminal, gain_per_s=a_p, noise_rms_m=0.0, wind_speed_m_s=0.0)
-        o = two_phase_outputs(sc, "rigid", BufferDevice(), passive_t_end_s=1.0, adjoint=diffrax.ForwardMode())
-        return jnp.stack([o["smooth_capture_margin_m"], o["smooth_a_max_g"]])
-
-    a0 = 2.0
-    jac = eqx.filter_jit(jax.jacfwd(f))(jnp.asarray(a0))
-    fj = eqx.filter_jit(f)
+    fj = eqx.filter_jit(lambda a: _gain_outputs(a, diffrax.ForwardMode()))
     h = 1e-2
-    fd = (fj(jnp.asarray(a0 + h)) - fj(jnp.asarray(a0 - h))) / (2 * h)
-    assert np.all(np.isfinite(np.asarray(jac)))
-    assert abs(float(jac[0])) > 0.05  # the gain moves the frame at capture
-    np.testing.assert_allclose(np.asarray(jac), np.asarray(fd), rtol=1e-2)
+    fd = (fj(jnp.asarray(GAIN_PER_S + h)) - fj(jnp.asarray(GAIN_PER_S - h))) / (2 * h)
+    assert np.all(np.isfinite(forward_jacobian))
+    assert abs(float(forward_jacobian[0])) > 0.05  # the gain moves the frame at capture
+    np.testing.assert_allclose(forward_jacobian, np.asarray(fd), rtol=1e-2)
 
 
 @pytest.mark.slow
-def test_reverse_mode_gradient_equals_forward_mode():
+def test_reverse_mode_gradient_equals_forward_mode(forward_jacobian):
     """Reverse-mode AD (diffrax's checkpointed adjoint) of both phases and the event time equals
     forward mode (checked against central differences above) to 1e-7. Regression: on jaxlib 0.10.2
     the reverse-mode program failed to run ("No registered implementation for untyped custom call
     to lapack_dtrsm_ffi for Host") because the passive phase starts from the traced captured state
     (see ``jaxcable.components.multibody._spd_solve``)."""
-    terminal = deviated_case()
-
-    def f(a_p, adjoint=None):
-        sc = tracking_scene(terminal, gain_per_s=a_p, noise_rms_m=0.0, wind_speed_m_s=0.0)
-        o = two_phase_outputs(sc, "rigid", BufferDevice(), passive_t_end_s=0.3, adjoint=adjoint)
-        return jnp.stack([o["smooth_capture_margin_m"], o["smooth_a_max_g"]])
-
-    a0 = jnp.asarray(2.0)
-    rev = np.asarray(eqx.filter_jit(jax.jacrev(f))(a0))
-    fwd = np.asarray(eqx.filter_jit(jax.jacfwd(lambda a: f(a, diffrax.ForwardMode())))(a0))
+    rev = np.asarray(eqx.filter_jit(jax.jacrev(lambda a: _gain_outputs(a, None)))(jnp.asarray(GAIN_PER_S)))
     assert np.all(np.isfinite(rev)) and abs(rev[0]) > 0.05
-    np.testing.assert_allclose(rev, fwd, rtol=1e-7, atol=1e-10)
+    np.testing.assert_allclose(rev, forward_jacobian, rtol=1e-7, atol=1e-10)
 
 
 @pytest.mark.parametrize("scenario", ["I", "II", "III"])
