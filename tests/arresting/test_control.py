@@ -426,13 +426,14 @@ def test_gradients_match_finite_differences(zero_track):
         return jnp.mean((res.target_m - res.slider_m) ** 2)
 
     p = jnp.array([2.0, 0.1])
-    grad = np.asarray(jax.grad(loss)(p))
+    grad = np.asarray(jax.jit(jax.grad(loss))(p))  # one program each (op by op costs more CPU time)
+    loss_ = jax.jit(loss)
     fd = []
     for i in range(2):
         # relative step 1e-3: the adaptive steps change with the parameter, which puts noise
         # ~ rtol * loss / (2 h) in the difference; 1e-3 keeps it ~ 1e-5 of the derivative
         h = 1e-3 * float(p[i])
-        fd.append((float(loss(p.at[i].add(h))) - float(loss(p.at[i].add(-h)))) / (2 * h))
+        fd.append((float(loss_(p.at[i].add(h))) - float(loss_(p.at[i].add(-h)))) / (2 * h))
     np.testing.assert_allclose(grad, fd, rtol=2e-5)
     assert grad[0] < 0 < grad[1]  # more gain tracks better, more delay tracks worse
 
