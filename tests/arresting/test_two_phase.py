@@ -163,6 +163,7 @@ def test_reverse_mode_gradient_equals_forward_mode(forward_jacobian):
     (see ``jaxcable.components.multibody._spd_solve``)."""
     rev = np.asarray(eqx.filter_jit(jax.jacrev(lambda a: _gain_outputs(a, None)))(jnp.asarray(GAIN_PER_S)))
     assert np.all(np.isfinite(rev)) and abs(rev[0]) > 0.05
+    # both differentiate the same discrete solve: measured 1.5e-15 and 6.6e-12 apart
     np.testing.assert_allclose(rev, forward_jacobian, rtol=1e-7, atol=1e-10)
 
 
