@@ -31,6 +31,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxcable.core import banded
 from jaxcable.components.ale import AleCable, axial_tension_factor, strain_energy_density
 from jaxcable.components.contact import _capsule_contact
 from jaxcable.components.wind import cable_drag_element_forces
@@ -389,6 +390,82 @@ class AleCables(eqx.Module):
             contact_pairs_touching=touching,
         )
         return f_hook, dstate, aux
+
+    def cable_forces(self, state: CableState, hooks: HookPoints, t=0.0):
+        """Generalised forces on every cable coordinate before the mass solve (what :meth:`respond`
+        feeds to the accelerations, the hooks held fixed): ``(Q_r (4, n_int, 3), Q_slow (4,
+        n_slow))`` [N] (:meth:`CableSubsystem.generalised_forces`). Internal node ``j`` depends on
+        the positions and velocities of nodes ``j - 1, j, j + 1`` and on the slow coordinates."""
+        kin = jax.vmap(lambda sub, q, qdot: sub.kinematics(q, qdot))(self.subsystems, state.q, state.qdot)
+        span_forces = self._contact(kin, hooks)[0]
+        lo, hi = self.span_slice
+
+        def one(sub, q, qdot, kin, span_forces):
+            n_el = kin.length.shape[0]
+            element_forces = jnp.pad(span_forces, ((lo, n_el - hi), (0, 0), (0, 0)))
+            if self.wind is not None:
+                element_forces = element_forces + self._span_drag(kin, t)[0]
+            return sub.generalised_forces(q, qdot, kin, element_forces)
+
+        return jax.vmap(one)(self.subsystems, state.q, state.qdot, kin, span_forces)
+
+    def stiff_blocks(self, state: CableState, hooks: HookPoints, t=0.0):
+        """The cables' linearisation for :mod:`jaxcable.core.rosenbrock` (hooks held fixed), as the
+        blocks of ``K = dQ/dq`` and ``C = dQ/dq_dot`` of :meth:`cable_forces` and of the mass:
+
+        * internal nodes: block-tridiagonal ``(lower, diag, upper)`` (4, n_int, 3, 3) from 18
+          coloured JVPs (positions and velocities);
+        * the slow coordinates' columns (4, n_int, 3, n_slow) and block (4, n_slow, n_slow) from
+          ``2 n_slow`` JVPs; their rows are taken as the columns' transpose (exact for the elastic
+          and Rayleigh terms, which derive from a potential and a dissipation function; a
+          W-method keeps its order with any approximation);
+        * mass: the internal-node tridiagonal (4, n_int) x3, ``M_rs``, ``M_ss``.
+
+        All the JVPs run as one vectorised call. Returns a dict of these arrays (the slots of
+        motor-driven pulleys are ``self.subsystems.route.active_slots``)."""
+        r, v = state.q.r, state.qdot.r
+        n_p = state.q.s.shape[-1]
+
+        def forces(r_, s_, u_, v_, sd_, ud_):
+            q = CableCoords(r=r_, s=s_, u=u_)
+            qdot = CableCoords(r=v_, s=sd_, u=ud_)
+            return self.cable_forces(eqx.tree_at(lambda st: (st.q, st.qdot), state, (q, qdot)), hooks, t)
+
+        primals = (r, state.q.s, state.q.u, v, state.qdot.s, state.qdot.u)
+        T = banded.colour_tangents(r.shape, r.dtype)  # (9, 4, n, 3)
+        n_slow = n_p + 1
+        E = jnp.eye(n_slow, dtype=r.dtype)
+        zr = jnp.zeros((2 * n_slow,) + r.shape, r.dtype)
+        zs = jnp.zeros((18,) + state.q.s.shape, r.dtype)
+        zu = jnp.zeros((18,) + state.q.u.shape, r.dtype)
+        slow_s = jnp.broadcast_to(E[:, None, :n_p], (n_slow,) + state.q.s.shape)
+        slow_u = jnp.broadcast_to(E[:, None, n_p], (n_slow,) + state.q.u.shape)
+        zs_slow = jnp.zeros_like(slow_s)
+        zu_slow = jnp.zeros_like(slow_u)
+        ZT = jnp.zeros_like(T)
+        tangents = (
+            jnp.concatenate([T, ZT, zr]),
+            jnp.concatenate([zs, slow_s, zs_slow]),
+            jnp.concatenate([zu, slow_u, zu_slow]),
+            jnp.concatenate([ZT, T, zr]),
+            jnp.concatenate([zs, zs_slow, slow_s]),
+            jnp.concatenate([zu, zu_slow, slow_u]),
+        )
+        _, (P_r, P_z) = jax.vmap(lambda *tan: jax.jvp(forces, primals, tan))(*tangents)
+        K_rr = banded.tridiagonal_blocks(P_r[:9])
+        C_rr = banded.tridiagonal_blocks(P_r[9:18])
+        # slow columns: P_r (n_slow, 4, n, 3) -> (4, n, 3, n_slow); P_z (n_slow, 4, n_slow) -> (4, n_slow, n_slow)
+        K_rz = jnp.moveaxis(P_r[18 : 18 + n_slow], 0, -1)
+        C_rz = jnp.moveaxis(P_r[18 + n_slow :], 0, -1)
+        K_zz = jnp.moveaxis(P_z[18 : 18 + n_slow], 0, -1)
+        C_zz = jnp.moveaxis(P_z[18 + n_slow :], 0, -1)
+
+        def masses(sub, q, qdot):
+            kin = sub.kinematics(q, qdot)
+            return sub.internal_mass_blocks(kin), sub.slow_mass_blocks(kin)
+
+        M_rr, (M_rs, M_ss) = jax.vmap(masses)(self.subsystems, state.q, state.qdot)
+        return dict(K_rr=K_rr, C_rr=C_rr, K_rz=K_rz, C_rz=C_rz, K_zz=K_zz, C_zz=C_zz, M_rr=M_rr, M_rs=M_rs, M_ss=M_ss)
 
     def energies(self, state: CableState, hooks: HookPoints):
         def one(sub, q, qdot):

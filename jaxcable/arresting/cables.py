@@ -520,6 +520,63 @@ class CableSubsystem(eqx.Module):
         f_s2 = jnp.sum(t_dot * m2 + t * m2_dot, axis=1) - s_inertia - s_static
         return jnp.stack([f_r1, f_r2], axis=1), jnp.stack([f_s1, f_s2], axis=1)
 
+    def nodal_forces(self, kin: "CableKinematics", element_forces=None):
+        """Lagrange's element terms plus the point forces ``element_forces`` (n_el, 2, 3) [N] on the
+        material at element ends, summed on the nodes: ``(F_r (N, 3) [N], F_s (N,) [N])``. Node ``i``
+        depends only on elements ``i - 1`` and ``i``, hence on nodes ``i - 1, i, i + 1``."""
+        f_r, f_s = self._element_forces(kin)
+        if element_forces is not None:
+            e_r, e_s = _material_force_rows(kin.tangent, element_forces)
+            f_r, f_s = f_r + e_r, f_s + e_s
+        return _scatter_element_ends((f_r, f_s))
+
+    def generalised_forces(self, q, qdot, kin: "CableKinematics", element_forces=None):
+        """All generalised forces of Lagrange's equations before the mass solve: ``(Q_r (n_int, 3),
+        Q_slow (n_slow,))`` [N], the slow coordinates being the pulleys' ``s`` then the block's ``u``
+        (element terms, point forces on the material, counterweight weight and brake)."""
+        F_r, F_s = self.nodal_forces(kin, element_forces)
+        Q_r, Q_s, Q_u = self._generalised(kin, F_r, F_s)
+        b = self.buffer
+        g = -self.gravity[2]
+        Q_u = Q_u - b.counterweight_mass_kg * g * b.transfer_rate + b.generalized_force(qdot.u, q.u)
+        return Q_r, jnp.concatenate([Q_s, Q_u[None]])
+
+    def slow_mass_blocks(self, kin: "CableKinematics"):
+        """The mass matrix's rows of the slow coordinates (pulley ``s``, block ``u``): ``(M_rs
+        (n_int, 3, n_slow), M_ss (n_slow, n_slow))`` [kg] (the same closed form as
+        :meth:`accelerations`, which never forms them this way)."""
+        route = self.route
+        _, _, _, moving = route._interpolation_tables()
+        pulleys = np.array(route.pulley_ids, dtype=int)
+        S = kin.W[:, pulleys]
+        t = kin.tangent
+        U = moving[:, None] * route.block_direction[None, :]
+        G1 = jnp.concatenate([-t[:, :, None] * S[:-1, None, :], U[:-1, :, None]], axis=2)
+        G2 = jnp.concatenate([-t[:, :, None] * S[1:, None, :], U[1:, :, None]], axis=2)
+        c = (self.cable.rhoA_kg_per_m / 6.0) * kin.length
+        H1 = c[:, None, None] * (2.0 * G1 + G2)
+        H2 = c[:, None, None] * (G1 + 2.0 * G2)
+        M_ss = jnp.einsum("eis,eit->st", G1, H1) + jnp.einsum("eis,eit->st", G2, H2)
+        n_slow = M_ss.shape[0]
+        b = self.buffer
+        M_ss = M_ss.at[n_slow - 1, n_slow - 1].add(b.counterweight_mass_kg * b.transfer_rate**2)
+        zero = jnp.zeros((1,) + H1.shape[1:], H1.dtype)
+        M_rs = route.internal_rows(jnp.concatenate([H1, zero]) + jnp.concatenate([zero, H2]))
+        return M_rs, M_ss
+
+    def internal_mass_blocks(self, kin: "CableKinematics"):
+        """Scalar consistent-mass tridiagonal of the internal nodes (their block is this (x) I3):
+        ``(lower (n_int,), diag (n_int,), upper (n_int,))`` [kg]; ``lower[j]`` couples internal node
+        ``j`` to ``j - 1`` (zero across a pulley or an end, and at ``j = 0``)."""
+        _, iidx, _, _ = self.route._index_tables()
+        internal = np.nonzero(iidx >= 0)[0]
+        c = (self.cable.rhoA_kg_per_m / 6.0) * kin.length  # (n_el,): node i has elements i-1 and i
+        diag = 2.0 * (c[internal - 1] + c[internal])
+        linked = np.diff(internal) == 1  # consecutive internal nodes share element internal[j]
+        off = jnp.where(linked, c[internal[:-1]], 0.0)
+        zero = jnp.zeros(1, c.dtype)
+        return jnp.concatenate([zero, off]), diag, jnp.concatenate([off, zero])
+
     def _generalised(self, kin: "CableKinematics", F_r, F_s):
         """``A^T`` of nodal forces ``F_r`` (N, 3), ``F_s`` (N,): generalised forces (r, s, u)."""
         route = self.route
@@ -558,11 +615,7 @@ class CableSubsystem(eqx.Module):
         """
         route = self.route
         kin = self.kinematics(q, qdot) if kin is None else kin
-        f_r, f_s = self._element_forces(kin)
-        if element_forces is not None:
-            e_r, e_s = _material_force_rows(kin.tangent, element_forces)
-            f_r, f_s = f_r + e_r, f_s + e_s
-        F_r, F_s = _scatter_element_ends((f_r, f_s))
+        F_r, F_s = self.nodal_forces(kin, element_forces)
         Q_r, Q_s, Q_u = self._generalised(kin, F_r, F_s)
         b = self.buffer
         g = -self.gravity[2]

@@ -47,6 +47,7 @@ from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.cable_sets import AleCables, HookPoints, MasslessCables, throat_weights
 from jaxcable.arresting.landing_rocket import flexible_landing_rocket, rigid_landing_rocket
 from jaxcable.arresting.layout import ArrestingLayout, CaptureState, check_hooks_inside_frame
+from jaxcable.arresting.stiff import CableLinearisation, ExplicitLinearisation
 from jaxcable.components.contact import ContactLaw
 from jaxcable.components.multibody import point_kinematics
 from jaxcable.components.wind import AeroCoefficients, WindField, rocket_aero_loads
@@ -161,6 +162,11 @@ class PassiveState(eqx.Module):
     """Work done so far by the air on the rocket and the cables [J] (zero in still air)."""
 
 
+def _cable_rows(state):
+    q, qdot = state.cables.q, state.cables.qdot
+    return q.r, q.s, q.u, qdot.r, qdot.s, qdot.u
+
+
 class PassiveLandingScene(AbstractScene):
     """Rocket + cable set after capture. ``rocket`` is a landing rocket (rigid or flexible, see
     :mod:`jaxcable.arresting.landing_rocket`); ``cables`` is :class:`MasslessCables` or :class:`AleCables`."""
@@ -233,6 +239,14 @@ class PassiveLandingScene(AbstractScene):
             hook_damping_work=hook_power,
             aero_work=aux["aero_power_W"],
         )
+
+    def stiff_linearisation(self, t, state):
+        """The stiff part of the Jacobian for ``simulate(solver="rosw")``
+        (:mod:`jaxcable.arresting.stiff`): the ALE cables' internal nodes; none for massless cables."""
+        if not isinstance(self.cables, AleCables):
+            return ExplicitLinearisation()
+        blocks = self.cables.stiff_blocks(state.cables, self.hooks(state.rocket), t)
+        return CableLinearisation(blocks, rows=_cable_rows, active=self.cables.subsystems.route.active_slots)
 
     def num_saved(self, t1) -> int:
         """Number of default saved samples over ``[0, t1]``: ``n_save`` if given, else

@@ -20,6 +20,7 @@ import diffrax
 import optimistix as optx
 from jaxtyping import Array, PyTree
 
+from jaxcable.core.rosenbrock import RosenbrockW
 from jaxcable.core.validation import check_bool, check_choice, check_int, check_positive, check_range, real
 
 SOLVERS = {
@@ -32,6 +33,7 @@ SOLVERS = {
     "kvaerno3": diffrax.Kvaerno3,
     "kvaerno4": diffrax.Kvaerno4,
     "kvaerno5": diffrax.Kvaerno5,
+    "rosw": RosenbrockW,
 }
 
 _STATUS = {
@@ -214,6 +216,9 @@ def _grid_checks_without_callbacks():
 
 
 def _solve(scene, t1, save_ts, snapshot_ts, solver, controller, adjoint, max_steps, dt0, progress_meter, probes_after):
+    if isinstance(solver, RosenbrockW) and solver.linearise is None and hasattr(scene, "stiff_linearisation"):
+        # the scene's structured linear solve (the traced scene, so derivatives flow through it)
+        solver = RosenbrockW(linearise=scene.stiff_linearisation, jacobian_every=solver.jacobian_every)
     term = diffrax.ODETerm(lambda t, y, args: scene.vector_field(t, y))
     after = probes_after_solve(scene) if probes_after is None else probes_after
     save_fn = (lambda t, y, args: y) if after else (lambda t, y, args: scene.probe(t, y))

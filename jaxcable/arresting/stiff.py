@@ -1,0 +1,119 @@
+r"""The linear solve of :class:`jaxcable.core.rosenbrock.RosenbrockW` for the arresting scenes.
+
+The W-method's Jacobian ``J`` here holds only the cables' internal nodes: with ``K = dF/dr`` and
+``C = dF/dv`` of their generalised forces (block-tridiagonal per cable, from
+:meth:`jaxcable.arresting.cable_sets.AleCables.stiff_blocks`) and ``M`` their consistent mass,
+``J`` maps ``(dr, dv)`` to ``(dv, M^-1 (K dr + C dv))``; every other coordinate (the rocket, the
+pulley and block coordinates, the work integrals) has a zero row and is integrated explicitly by
+the same stages. Solving ``(beta I - J) (x_r, x_v) = (b_r, b_v)``: eliminating ``x_r = (b_r +
+x_v) / beta`` leaves
+
+    (beta^2 M - beta C - K) x_v = beta M b_v + K b_r,
+
+block-tridiagonal with 3x3 blocks, factored once per step and solved per stage in O(n)
+(:mod:`jaxcable.core.banded`). Every other component is ``x = b / beta``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+
+from jaxcable.core import banded
+
+__all__ = ["CableLinearisation", "ExplicitLinearisation"]
+
+
+def _mass_matvec(M, x):
+    """Scalar tridiagonal ``M = (lower, diag, upper)`` (..., n) (x) I3 times ``x`` (..., n, 3)."""
+    lower, diag, upper = M
+    zero = jnp.zeros_like(x[..., :1, :])
+    prev = jnp.concatenate([zero, x[..., :-1, :]], axis=-2)
+    nxt = jnp.concatenate([x[..., 1:, :], zero], axis=-2)
+    return lower[..., None] * prev + diag[..., None] * x + upper[..., None] * nxt
+
+
+class ExplicitLinearisation(eqx.Module):
+    """``J = 0``: every stage is explicit (the scene has no stiff structured part)."""
+
+    def factor(self, beta):
+        return _ScaledIdentity(beta)
+
+
+class _ScaledIdentity(eqx.Module):
+    beta: jax.Array
+
+    def solve(self, rhs):
+        return jax.tree_util.tree_map(lambda b: b / self.beta, rhs)
+
+
+class CableLinearisation(eqx.Module):
+    """The cables' blocks (:meth:`jaxcable.arresting.cable_sets.AleCables.stiff_blocks`) and where
+    their rows sit in the scene's state: ``rows(state) -> (q.r, q.s, q.u, qdot.r, qdot.s, qdot.u)``
+    of the stacked cable coordinates."""
+
+    blocks: dict
+    rows: Callable = eqx.field(static=True)
+    active: tuple = eqx.field(static=True, default=())
+    """Slots of the slow coordinates whose rates are prescribed (motor-driven pulleys)."""
+
+    def factor(self, beta):
+        B = self.blocks
+        I3 = jnp.eye(3, dtype=B["K_rr"][1].dtype)
+        A_rr = tuple(
+            (beta**2) * m[..., None, None] * I3 - beta * c - k for m, c, k in zip(B["M_rr"], B["C_rr"], B["K_rr"])
+        )
+        A_rz = (beta**2) * B["M_rs"] - beta * B["C_rz"] - B["K_rz"]  # (4, n, 3, n_slow)
+        A_zr = (beta**2) * B["M_rs"] - beta * B["C_rz"] - B["K_rz"]  # rows: the columns' transpose
+        A_zz = (beta**2) * B["M_ss"] - beta * B["C_zz"] - B["K_zz"]
+        active = list(self.active)
+        if active:  # prescribed rates: the row is beta^2 x = beta b
+            n_slow = A_zz.shape[-1]
+            E = jnp.eye(n_slow, dtype=A_zz.dtype)[active]
+            A_zz = A_zz.at[..., active, :].set((beta**2) * E)
+            A_zr = A_zr.at[..., active].set(0.0)
+        F = banded.factor(*A_rr)
+        Y = jax.vmap(lambda col: banded.solve(F, col), in_axes=-1, out_axes=-1)(A_rz)  # A_rr^-1 A_rz
+        S = A_zz - jnp.einsum("cnis,cnit->cst", A_zr, Y)
+        return _CableFactors(F, Y, A_zr, jnp.linalg.inv(S), self, beta)
+
+
+def _slow(s, u):
+    return jnp.concatenate([s, u[..., None]], axis=-1)
+
+
+class _CableFactors(eqx.Module):
+    F: tuple
+    Y: jax.Array
+    A_zr: jax.Array
+    S_inv: jax.Array
+    lin: CableLinearisation
+    beta: jax.Array
+
+    def solve(self, rhs):
+        beta, B = self.beta, self.lin.blocks
+        bq_r, bq_s, bq_u, bv_r, bv_s, bv_u = self.lin.rows(rhs)
+        bq_z, bv_z = _slow(bq_s, bq_u), _slow(bv_s, bv_u)
+        g_r = (
+            beta * (_mass_matvec(B["M_rr"], bv_r) + jnp.einsum("cnis,cs->cni", B["M_rs"], bv_z))
+            + banded.matvec(*B["K_rr"], bq_r)
+            + jnp.einsum("cnis,cs->cni", B["K_rz"], bq_z)
+        )
+        g_z = (
+            beta * (jnp.einsum("cnis,cni->cs", B["M_rs"], bv_r) + jnp.einsum("cst,ct->cs", B["M_ss"], bv_z))
+            + jnp.einsum("cnis,cni->cs", B["K_rz"], bq_r)
+            + jnp.einsum("cst,ct->cs", B["K_zz"], bq_z)
+        )
+        active = list(self.lin.active)
+        if active:
+            g_z = g_z.at[..., active].set(beta * bv_z[..., active])
+        w = banded.solve(self.F, g_r)
+        x_z = jnp.einsum("cst,ct->cs", self.S_inv, g_z - jnp.einsum("cnis,cni->cs", self.A_zr, w))
+        x_r = w - jnp.einsum("cnis,cs->cni", self.Y, x_z)
+        xq_r, xq_z = (bq_r + x_r) / beta, (bq_z + x_z) / beta
+        out = jax.tree_util.tree_map(lambda b: b / beta, rhs)
+        new = (xq_r, xq_z[..., :-1], xq_z[..., -1], x_r, x_z[..., :-1], x_z[..., -1])
+        return eqx.tree_at(self.lin.rows, out, new)
