@@ -22,9 +22,12 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from jaxcable.core import banded
+from jax.flatten_util import ravel_pytree
 
-__all__ = ["CableLinearisation", "ExplicitLinearisation"]
+from jaxcable.core import banded
+from jaxcable.core.rosenbrock import DenseLinearisation
+
+__all__ = ["CableLinearisation", "ExplicitLinearisation", "dense_reference"]
 
 
 def _mass_matvec(M, x):
@@ -117,3 +120,37 @@ class _CableFactors(eqx.Module):
         out = jax.tree_util.tree_map(lambda b: b / beta, rhs)
         new = (xq_r, xq_z[..., :-1], xq_z[..., -1], x_r, x_z[..., :-1], x_z[..., -1])
         return eqx.tree_at(self.lin.rows, out, new)
+
+
+def dense_reference(lin: CableLinearisation, state):
+    """The same ``J`` as ``lin``, assembled densely over the flattened state, as a
+    :class:`jaxcable.core.rosenbrock.DenseLinearisation` (LU of ``beta I - J``): the reference the
+    tests compare the structured, bordered solve with (O(n^3); small meshes only)."""
+    flat, unravel = ravel_pytree(state)
+    n = flat.shape[0]
+    index = [jnp.asarray(x).astype(int) for x in lin.rows(unravel(jnp.arange(n, dtype=flat.dtype)))]
+    q_r, q_s, q_u, v_r, v_s, v_u = index
+    B = lin.blocks
+    J = jnp.zeros((n, n), flat.dtype)
+    for c in range(q_r.shape[0]):
+        iq = jnp.concatenate([q_r[c].reshape(-1), q_s[c].reshape(-1), q_u[c].reshape(-1)])
+        iv = jnp.concatenate([v_r[c].reshape(-1), v_s[c].reshape(-1), v_u[c].reshape(-1)])
+        n_r = q_r[c].size
+
+        def full(tri, rz, zz):
+            top = jnp.concatenate([banded.dense(*tri), rz.reshape(n_r, -1)], axis=1)
+            bottom = jnp.concatenate([rz.reshape(n_r, -1).T, zz], axis=1)
+            return jnp.concatenate([top, bottom], axis=0)
+
+        I3 = jnp.eye(3, dtype=flat.dtype)
+        M = full(tuple(m[c][:, None, None] * I3 for m in B["M_rr"]), B["M_rs"][c], B["M_ss"][c])
+        K = full(tuple(k[c] for k in B["K_rr"]), B["K_rz"][c], B["K_zz"][c])
+        C = full(tuple(k[c] for k in B["C_rr"]), B["C_rz"][c], B["C_zz"][c])
+        JK, JC = jnp.linalg.solve(M, K), jnp.linalg.solve(M, C)
+        if lin.active:  # prescribed rates: zero rows
+            rows = jnp.asarray([n_r + a for a in lin.active])
+            JK, JC = JK.at[rows].set(0.0), JC.at[rows].set(0.0)
+        J = J.at[iq[:, None], iv[None, :]].set(jnp.eye(iq.size, dtype=flat.dtype))
+        J = J.at[iv[:, None], iq[None, :]].set(JK)
+        J = J.at[iv[:, None], iv[None, :]].set(JC)
+    return DenseLinearisation(J, unravel)
