@@ -111,7 +111,9 @@ def _one_case(problem: DesignProblem, scene, adjoint):
     )
     smooth = smooth_landing_outputs(res.ts, res.probes, problem.widths)
     hard = {k: res.outputs[k] for k in CRITERIA}
-    out = dict(smooth=smooth, hard=hard, status=res.status, num_steps=res.num_steps)
+    # a case cut short (solver failure, or not stopped by t_end) does not land, whatever its maxima
+    completed = res.outputs["solve_ok"] & res.outputs["stopped"]
+    out = dict(smooth=smooth, hard=hard, completed=completed, status=res.status, num_steps=res.num_steps)
     m = getattr(scene.cables, "contact_tangent_pairs", None)
     if m is not None and "contact_pairs_touching" in res.probes:
         # ale/full: the contact's derivative is exact while at most m pairs touch (checked on the
@@ -155,7 +157,9 @@ def _one_two_phase_case(problem: DesignProblem, terminal, conditions, x, adjoint
     hard["capture_margin_m"] = out["capture_margin_m"]
     hard["tracking_error_m"] = error
     status = jnp.where(event_occurred(out["tracking_status"]), out["passive_status"], out["tracking_status"])
-    return dict(smooth=smooth, hard=hard, status=status, num_steps=out["tracking_steps"] + out["passive_steps"])
+    completed = event_occurred(out["tracking_status"]) & out["solve_ok"] & out["stopped"]
+    return dict(smooth=smooth, hard=hard, completed=completed, status=status,
+                num_steps=out["tracking_steps"] + out["passive_steps"])  # fmt: skip
 
 
 def _batch(problem: DesignProblem, x, adjoint):
@@ -267,6 +271,14 @@ def _hard_ok(problem, aux):
     return r < 1.0
 
 
+def _landed(problem, aux):
+    """(n,) bool: each case meets every hard criterion and ran to completion (the solves succeeded
+    and the rocket stopped, ``aux["completed"]``): the landing success of
+    :func:`jaxcable.arresting.passive.landing_outputs`."""
+    done = np.asarray(aux["completed"], dtype=bool) if "completed" in aux else True
+    return np.all(_hard_ok(problem, aux), axis=1) & done
+
+
 def _worst(name, values):
     # the capture margin is a margin (larger is better): its worst case is the minimum
     return float(np.min(values)) if name == "capture_margin_m" else float(np.max(values))
@@ -286,7 +298,8 @@ def criteria_summary(problem: DesignProblem, aux) -> dict:
     """JSON-able summary of one batch evaluation (an ``aux`` of :func:`objective` or the output of
     :func:`batch_criteria`): for ``hard`` and ``smooth`` criteria the worst case and the mean, the
     worst margin (``1 - c / limit``; for the capture margin the smallest margin itself [m]);
-    per-criterion and overall success rates (hard criteria); solver failures."""
+    per-criterion success rates (hard criteria) and the overall one (every hard criterion met, the
+    solves succeeded and the rocket stopped); solver failures."""
     out = {}
     for kind in ("hard", "smooth"):
         d = {}
@@ -297,7 +310,7 @@ def criteria_summary(problem: DesignProblem, aux) -> dict:
             d[k] = dict(worst=worst, mean=float(np.mean(v)), margin=float(margin))
         out[kind] = d
     ok = _hard_ok(problem, aux)
-    out["success_rate"] = float(np.mean(np.all(ok, axis=1)))
+    out["success_rate"] = float(np.mean(_landed(problem, aux)))
     out["success_rate_per_criterion"] = {k: float(np.mean(ok[:, i])) for i, k in enumerate(problem.criteria_names)}
     status = np.asarray(aux["status"])
     out["solver_failures"] = int(np.sum(status != 0))
@@ -331,6 +344,6 @@ def history_record(problem: DesignProblem):
                 stacklevel=3,
             )
         worst = [_worst(k, np.asarray(aux["hard"][k])) for k in problem.criteria_names]
-        return worst, float(np.mean(np.all(_hard_ok(problem, aux), axis=1)))
+        return worst, float(np.mean(_landed(problem, aux)))
 
     return record

@@ -17,23 +17,63 @@ level     rocket                                               cables
 
 Outputs (every level, :func:`landing_outputs`): histories of Fig 11 (drop, vertical velocity,
 acceleration, max cable stress, counterweight rise), ``z_max_m`` (max drop of O, the hook-plane
-centre), ``a_max_g`` (max |acceleration of the centre of mass| / 9.80, the criteria's g),
-``sigma_max_mpa`` (max cable stress), ``stop_time_s`` (first time the descent stops), the criteria
-(z_max < 10 m, a_max < 5 g, sigma_max < 800 MPa), the energy budget and the solver status.
+centre), ``a_max_g`` (max |acceleration of the centre of mass| / 9.80, the criteria's g, after the
+CFC 60 filter below), ``sigma_max_mpa`` (max cable stress, CFC 60), the unfiltered maxima
+``a_max_raw_g`` and ``sigma_max_raw_mpa``, ``stop_time_s`` (first time the descent stops), the
+criteria (z_max < 10 m, a_max < 5 g, sigma_max < 800 MPa), the energy budget and the solver status.
+
+**Success** (``criteria_met``): the solve succeeded (``solve_ok``: diffrax ``successful`` or
+``event_occurred``), the descent stopped within the run (``stopped``), and z_max, a_max and
+sigma_max are below their limits (``z_ok``, ``a_ok``, ``sigma_ok``). A run cut short (out of solver
+steps, or ``t_end`` before the stop) has not shown that the rocket is stopped within the limits, so it
+does not meet the criteria whatever its maxima so far.
 
 The acceleration is that of the rocket's centre of mass, ``g + F_cables / m``, exact for every level
 (the flexible rocket's local accelerations also carry its vibration).
+
+**The criteria's filter: SAE J211/1 (ISO 6487) CFC 60** (:data:`CRITERIA_CFC_HZ`,
+:mod:`jaxcable.core.filters`). Crash and drop tests state an acceleration criterion together with a
+channel frequency class; the paper gives none. a_max is the maximum of ``|filtered a|``, the three
+components of the centre of mass's acceleration each filtered (J211 filters each channel, the
+resultant is formed after), and sigma_max the maximum of the filtered history of the largest cable
+stress (one channel: the largest of the four cables' stresses at each sample). Why CFC 60:
+
+* J211 recommends CFC 60 for whole-vehicle accelerations used for the vehicle's motion (velocity,
+  displacement): a_max is the deceleration of the whole rocket, the quantity the 1-DOF design model
+  bounds (section II.B), not a local structural or payload load (CFC 180 and up).
+* The rocket's structural modes lie in CFC 60's pass band. The flexible rocket's linearised modes
+  (free-free, hooks welded; 5 bodies, confirmed with 10) are 6.4 Hz (first bending), 17, 19, 24-25
+  and 35-37 Hz; the modes above ~50 Hz differ between 5 and 10 bodies (discretisation, not
+  structure). The cable-counterweight mode that sets a_max is ~5 Hz (30 rad/s). CFC 60's gain at
+  1 ms spacing is 0.99997 at 10 Hz, 0.991 at 40 Hz, 0.956 at 60 Hz (:func:`.filters.cfc_gain`). It
+  removes what the criteria should not see: the sub-millisecond hook-impact spikes of the ale/full
+  levels, and the dependence of the maxima on where the samples fall.
+* The 1 ms grid allows no higher class: J211 asks for at least ~10 samples per period of the
+  class's 3 dB frequency ``F_H = 1.667 CFC`` (100 Hz for CFC 60), i.e. 1 kHz for CFC 60, exactly the
+  scenes' 1 ms (:data:`SAVE_SPACING_S`; Nyquist 500 Hz). CFC 180 (``F_H`` = 300 Hz) would need
+  ``save_spacing_s`` <= 0.33 ms, 3x the samples of every scene, sweep and design. A grid coarser
+  than 4.01 ms (CFC 60's design frequency, 124.65 Hz, at the Nyquist frequency) is refused.
+
+The filter, its ends (steady state at the first and last samples) and the samples after an early end
+(the last finite sample held) are described in :mod:`jaxcable.core.filters`. ``smooth_landing_outputs``
+takes its soft maxima over the same filtered histories, so the design's gradients are those of the
+filtered criteria. The forward-backward Butterworth rings on a step: 3.8% overshoot on an ideal
+step. A filtered maximum is therefore not always below the raw one: a peak that ends in a sharp
+drop (the stop of a stiff cable, where the brakes stick) comes out up to a few percent higher.
 """
 
 from __future__ import annotations
 
 import dataclasses
 
+import diffrax
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxcable.core.filters import CFC_DESIGN_FACTOR, cfc_filter, cfc_max_spacing_s
+from jaxcable.core.math import safe_norm
 from jaxcable.core.validation import (
     check_choice,
     check_instance,
@@ -53,22 +93,31 @@ from jaxcable.components.multibody import point_kinematics
 from jaxcable.components.wind import AeroCoefficients, WindField, rocket_aero_loads
 
 __all__ = [
+    "CRITERIA_CFC_HZ",
     "FIDELITY_LEVELS",
     "G_CRITERIA",
     "LandingCriteria",
     "PassiveLandingScene",
     "SAVE_SPACING_S",
     "SmoothingWidths",
+    "criteria_met",
+    "filtered_histories",
+    "filtered_maxima",
     "landing_outputs",
     "passive_landing_scene",
     "smooth_landing_outputs",
     "soft_max",
+    "solve_succeeded",
 ]
 
 G_CRITERIA = 9.80
 """The g of the paper's success criteria (section IV.A: "5 g where g = 9.80 m/s^2")."""
 
 FIDELITY_LEVELS = ("1dof", "rigid", "ale", "full")
+
+CRITERIA_CFC_HZ = 60.0
+"""Channel frequency class [Hz] of the SAE J211/1 filter applied to the acceleration and stress
+histories before a_max and sigma_max are taken (reasons in the module docstring)."""
 
 SAVE_SPACING_S = 1e-3
 """Default spacing of the saved samples of a passive landing [s], every level: the scene saves
@@ -116,9 +165,16 @@ MAX_SPAN_ELEMENTS = 256
 with the shortest element, so 256 already costs hours per simulated second)."""
 
 
+MAX_SAVE_SPACING_S = cfc_max_spacing_s(CRITERIA_CFC_HZ)
+"""Coarsest saved grid a passive scene accepts [s], exclusive: 4.01 ms, where the design frequency
+of the criteria's CFC 60 filter (124.65 Hz) reaches the Nyquist frequency. J211 asks for 1 ms
+(:data:`SAVE_SPACING_S`); grids between the two run, with the filter under-sampled."""
+
+
 def _check_save_grid(save_spacing_s, n_save):
     check_positive("save_spacing_s", save_spacing_s)
-    check_range("save_spacing_s", save_spacing_s, 0.0, 1.0, high_inclusive=True, unit=" s")
+    check_range("save_spacing_s", save_spacing_s, 0.0, MAX_SAVE_SPACING_S, unit=" s",
+                why=f"the criteria's CFC {CRITERIA_CFC_HZ:g} filter needs its design frequency below the Nyquist frequency")  # fmt: skip
     if n_save is not None and (isinstance(n_save, bool) or not isinstance(n_save, (int, np.integer)) or n_save < 2):
         raise ValueError(f"n_save must be an integer >= 2 or None, got {n_save!r}")
     if n_save is not None and n_save > 10**7:
@@ -139,15 +195,33 @@ def check_cable_damping(name, cable_damping_s):
 
 
 class LandingCriteria(eqx.Module):
-    """Success criteria of the passive phase (section IV.A): positive and finite."""
+    """Success criteria of the passive phase (section IV.A): positive and finite. A landing meets
+    them when its solve succeeded, the rocket stopped, and z_max [m], a_max [g of 9.80 m/s^2] and
+    sigma_max [MPa], the latter two after the SAE J211 filter of class ``filter_cfc_hz`` [Hz], are
+    below the limits (:func:`landing_outputs`)."""
 
     z_max_m: float = 10.0
     a_max_g: float = 5.0
     sigma_max_mpa: float = 800.0
+    filter_cfc_hz: float = CRITERIA_CFC_HZ
+    """Channel frequency class of the filter of the acceleration and stress histories [Hz]
+    (:data:`CRITERIA_CFC_HZ`, 60)."""
 
     def __check_init__(self):
-        for name in ("z_max_m", "a_max_g", "sigma_max_mpa"):
+        for name in ("z_max_m", "a_max_g", "sigma_max_mpa", "filter_cfc_hz"):
             check_positive(name, getattr(self, name))
+
+
+def _check_spacing_of(name, value, n, t1=None):
+    """The saved grid of ``n`` samples over ``[0, t1]`` is fine enough for the criteria's filter
+    (:data:`MAX_SAVE_SPACING_S`); ``name``/``value`` name the field that set it."""
+    t1 = float(value if t1 is None else t1)
+    spacing = t1 / (n - 1)
+    if not spacing < MAX_SAVE_SPACING_S:
+        raise ValueError(
+            f"{name} = {value!r} gives saved samples {spacing:g} s apart over [0, {t1:g}] s; the criteria's "
+            f"CFC {CRITERIA_CFC_HZ:g} filter needs a spacing below {MAX_SAVE_SPACING_S:.6g} s (1 ms recommended)"
+        )
 
 
 class PassiveState(eqx.Module):
@@ -252,6 +326,8 @@ class PassiveLandingScene(AbstractScene):
         """Number of default saved samples over ``[0, t1]``: ``n_save`` if given, else
         ``round(t1 / save_spacing_s) + 1`` (at least 2). ``t1`` must be concrete (not traced)."""
         if self.n_save is not None:
+            if not isinstance(t1, jax.core.Tracer):
+                _check_spacing_of("n_save", self.n_save, self.n_save, t1)
             return int(self.n_save)
         if isinstance(t1, jax.core.Tracer):
             raise ValueError(
@@ -267,6 +343,7 @@ class PassiveLandingScene(AbstractScene):
                 f"t1 must give at most 1e7 saved samples at save_spacing_s = {self.save_spacing_s:g} s "
                 f"(t1 <= {1e7 * self.save_spacing_s:g} s), got t1 = {t1:g}"
             )
+        _check_spacing_of("t1", t1, n)
         return n
 
     def default_save_ts(self, t1):
@@ -327,16 +404,81 @@ def _energy_total(energy):
     return stored - energy["contact_work"] - energy.get("aero_work", 0.0)
 
 
+_SUCCESSFUL = int(diffrax.RESULTS.successful._value)
+_EVENT_OCCURRED = int(diffrax.RESULTS.event_occurred._value)
+
+
+def solve_succeeded(status):
+    """Whether a diffrax result code (an integer array under jit/vmap) is ``successful`` or
+    ``event_occurred``: the solve reached ``t1`` or its terminal event (as
+    :attr:`jaxcable.core.simulate.Result.ok`)."""
+    return (status == _SUCCESSFUL) | (status == _EVENT_OCCURRED)
+
+
+def _grid_spacing(ts, cfc_hz):
+    """Spacing [s] of the uniformly spaced saved times ``ts`` (``ts[1] - ts[0]``), and whether it is
+    fine enough for the CFC ``cfc_hz`` filter. When the run saved only its first sample the record
+    is constant after :func:`.filters.hold_last_finite`, which every spacing filters to itself: half
+    the limit is used."""
+    limit = 1.0 / (2.0 * CFC_DESIGN_FACTOR * cfc_hz)  # cfc_max_spacing_s, traceable in cfc_hz
+    if ts.shape[0] < 2:
+        return jnp.asarray(0.5 * limit), jnp.asarray(True)
+    dt = jnp.where(jnp.isfinite(ts[1]), ts[1] - ts[0], 0.5 * limit)
+    ok = (dt > 0.0) & (dt < limit)
+    return jnp.where(ok, dt, 0.5 * limit), ok
+
+
+def filtered_histories(ts, probes, cfc_hz=CRITERIA_CFC_HZ, before=None):
+    """The criteria's histories after the SAE J211 CFC ``cfc_hz`` filter (module docstring):
+    ``acceleration_g`` (n,), the magnitude of the filtered components of the centre of mass's
+    acceleration [g of 9.80 m/s^2], and ``stress_max_mpa`` (n,), the filtered largest cable stress
+    [MPa]; samples after an early end (``ts`` not finite) hold the last finite ones. ``ts`` (n,) must
+    be uniformly spaced (the scenes' saved grids are); also returns ``grid_ok``, False when the
+    spacing is too coarse for the filter (the criteria are then NaN).
+
+    ``before`` (default None: the scenes, whose histories are continuous at capture): the values of
+    ``acceleration_m_s2`` (3,) and ``stress_max_pa`` before t = 0, for a record that jumps at t = 0
+    (the 1-DOF model's rigid cables load at once; :func:`.filters.cfc_filter`'s ``initial``)."""
+    finite = jnp.isfinite(ts)
+    dt, grid_ok = _grid_spacing(ts, cfc_hz)
+    before = {} if before is None else before
+    acc = cfc_filter(probes["acceleration_m_s2"], dt, cfc_hz, valid=finite, initial=before.get("acceleration_m_s2"))
+    stress = cfc_filter(probes["stress_max_pa"], dt, cfc_hz, valid=finite, initial=before.get("stress_max_pa"))
+    return dict(acceleration_g=safe_norm(acc, axis=1) / G_CRITERIA, stress_max_mpa=stress / 1e6), grid_ok
+
+
+def filtered_maxima(ts, probes, cfc_hz=CRITERIA_CFC_HZ, before=None):
+    """``a_max_g``, ``sigma_max_mpa`` (filtered, :func:`filtered_histories`, ``before`` there) and
+    ``a_max_raw_g``, ``sigma_max_raw_mpa`` (unfiltered): maxima over the saved samples with finite
+    times."""
+    finite = jnp.isfinite(ts)
+    hist, grid_ok = filtered_histories(ts, probes, cfc_hz, before)
+
+    def peak(v):
+        return jnp.max(jnp.where(finite, v, -jnp.inf))
+
+    raw_acc = jnp.linalg.norm(jnp.where(finite[:, None], probes["acceleration_m_s2"], 0.0), axis=1)
+    return dict(
+        a_max_g=jnp.where(grid_ok, peak(hist["acceleration_g"]), jnp.nan),
+        sigma_max_mpa=jnp.where(grid_ok, peak(hist["stress_max_mpa"]), jnp.nan),
+        a_max_raw_g=peak(raw_acc) / G_CRITERIA,
+        sigma_max_raw_mpa=peak(probes["stress_max_pa"]) / 1e6,
+    )
+
+
 def landing_outputs(ts, probes, status, criteria: LandingCriteria = LandingCriteria()):
-    """Scalar outputs shared by every level (dict of arrays)."""
+    """Scalar outputs shared by every level (dict of arrays; traceable under jit/vmap).
+
+    ``z_max_m`` [m]; ``a_max_g`` [g] and ``sigma_max_mpa`` [MPa] after the criteria's CFC filter,
+    ``a_max_raw_g`` and ``sigma_max_raw_mpa`` without it (:func:`filtered_maxima`); ``stop_time_s``
+    [s] (NaN when not stopped); the flags ``solve_ok`` (diffrax ``successful`` or
+    ``event_occurred``), ``stopped``, ``z_ok``, ``a_ok``, ``sigma_ok`` and ``criteria_met``, their
+    conjunction; ``energy_budget_error`` [-] and the diffrax ``status``."""
     finite = jnp.isfinite(ts)
     drop = jnp.where(finite, probes["drop_m"], -jnp.inf)
     vz = probes["velocity_m_s"][:, 2]
-    acc = jnp.linalg.norm(probes["acceleration_m_s2"], axis=1)
-    sigma = probes["stress_max_pa"]
     z_max = jnp.max(drop)
-    a_max = jnp.max(jnp.where(finite, acc, -jnp.inf)) / G_CRITERIA
-    sigma_max = jnp.max(jnp.where(finite, sigma, -jnp.inf)) / 1e6
+    maxima = filtered_maxima(ts, probes, criteria.filter_cfc_hz)
     # stop: first sample where the descent has stopped (vz >= 0), linearly interpolated
     stopped = (vz >= 0.0) & finite
     idx = jnp.argmax(stopped)
@@ -349,20 +491,28 @@ def landing_outputs(ts, probes, status, criteria: LandingCriteria = LandingCrite
     e0 = totals[0]
     scale = jnp.abs(totals[0] - probes["energy"]["rocket_gravitational"][0] + 1.0)
     budget_err = jnp.max(jnp.where(finite, jnp.abs(totals - e0), 0.0)) / scale
-    met = (z_max < criteria.z_max_m) & (a_max < criteria.a_max_g) & (sigma_max < criteria.sigma_max_mpa)
-    return dict(
-        z_max_m=z_max,
-        a_max_g=a_max,
-        sigma_max_mpa=sigma_max,
-        stop_time_s=stop_time,
+    flags = dict(
+        solve_ok=solve_succeeded(status),
         stopped=jnp.any(stopped),
         z_ok=z_max < criteria.z_max_m,
-        a_ok=a_max < criteria.a_max_g,
-        sigma_ok=sigma_max < criteria.sigma_max_mpa,
-        criteria_met=met,
+        a_ok=maxima["a_max_g"] < criteria.a_max_g,
+        sigma_ok=maxima["sigma_max_mpa"] < criteria.sigma_max_mpa,
+    )
+    return dict(
+        z_max_m=z_max,
+        **maxima,
+        stop_time_s=stop_time,
+        **flags,
+        criteria_met=criteria_met(flags),
         energy_budget_error=budget_err,
         status=status,
     )
+
+
+def criteria_met(flags):
+    """A landing's success from its flags (dict of bools or bool arrays): the solve succeeded, the
+    rocket stopped, and every criterion is within its limit."""
+    return flags["solve_ok"] & flags["stopped"] & flags["z_ok"] & flags["a_ok"] & flags["sigma_ok"]
 
 
 class SmoothingWidths(eqx.Module):
@@ -380,15 +530,17 @@ def soft_max(values, width, valid=None):
     return width * jax.scipy.special.logsumexp(values / width)
 
 
-def smooth_landing_outputs(ts, probes, widths: SmoothingWidths = SmoothingWidths()):
+def smooth_landing_outputs(ts, probes, widths: SmoothingWidths = SmoothingWidths(), cfc_hz=CRITERIA_CFC_HZ):
     """Differentiable versions of z_max [m], a_max [g], sigma_max [MPa] (soft maxima over the saved
-    history) for gradients and design; see :func:`landing_outputs` for the hard ones."""
+    history) for gradients and design; a_max and sigma_max over the histories filtered like the hard
+    criteria (CFC ``cfc_hz`` [Hz], :func:`filtered_histories`); see :func:`landing_outputs` for the
+    hard ones."""
     finite = jnp.isfinite(ts)
-    acc = jnp.sqrt(jnp.sum(probes["acceleration_m_s2"] ** 2, axis=1)) / G_CRITERIA
+    hist, _ = filtered_histories(ts, probes, cfc_hz)
     return dict(
         z_max_m=soft_max(probes["drop_m"], widths.z_m, finite),
-        a_max_g=soft_max(acc, widths.a_g, finite),
-        sigma_max_mpa=soft_max(probes["stress_max_pa"] / 1e6, widths.sigma_mpa, finite),
+        a_max_g=soft_max(hist["acceleration_g"], widths.a_g, finite),
+        sigma_max_mpa=soft_max(hist["stress_max_mpa"], widths.sigma_mpa, finite),
     )
 
 

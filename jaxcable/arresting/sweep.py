@@ -24,10 +24,16 @@ Readings and choices, written down:
   phase (Table 4).
 * ``captured`` in the passive phase: every hook carries a nonzero cable force at some saved time (the
   paper's capture criterion, "contact forces ... nonzero", section IV.A). ``stopped``: the descent
-  stopped within ``t_end_s``. ``success`` = captured and stopped and all three criteria met. The
-  ``margin`` of a criterion is limit - value (positive when met), in the criterion's unit.
+  stopped within ``t_end_s``. ``solve_ok``: the solver reached ``t_end_s`` (diffrax ``successful``).
+  ``criteria_met`` = solve_ok and stopped and all three criteria within their limits
+  (:func:`jaxcable.arresting.passive.landing_outputs`); ``success`` = captured and criteria_met (the
+  two-phase sweep: captured, tracking_ok and criteria_met). A case cut short (out of steps, or not
+  stopped by ``t_end_s``) is never a success. The ``margin`` of a criterion is limit - value
+  (positive when met), in the criterion's unit.
 * The maxima are over saved samples 1 ms apart over ``[0, t_end_s]`` (t_end_s = 2 s by default;
-  both chosen by measurement, see :func:`passive_case_fn`).
+  both chosen by measurement, see :func:`passive_case_fn`); a_max and sigma_max after the SAE J211
+  CFC 60 filter (:mod:`jaxcable.arresting.passive`), their unfiltered maxima in ``a_max_raw_g`` and
+  ``sigma_max_raw_mpa``.
 * The sweep's default fidelity is ``rigid`` (rigid 6-DOF rocket, massless elastic cables) because of
   cost: a 2 s case takes ~0.1 s once compiled (batch 8-32, one CPU core), against ~3.6 s per 0.3 s
   simulated for ``ale`` (~17k steps per simulated second; ``experiments/bench_sweep.py``).
@@ -102,9 +108,9 @@ CASE_FUNCTIONS = {"passive": "arresting.passive", "full": "arresting.full"}
 """Registry name of each phase's case function (:mod:`jaxcable.studies.registry`)."""
 
 _COLUMN_ORDER = (
-    "success", "captured", "stopped", "criteria_met",
+    "success", "captured", "stopped", "solve_ok", "criteria_met",
     "z_ok", "a_ok", "sigma_ok", "z_max_m", "a_max_g", "sigma_max_mpa",
-    "z_margin_m", "a_margin_g", "sigma_margin_mpa", "stop_time_s",
+    "z_margin_m", "a_margin_g", "sigma_margin_mpa", "a_max_raw_g", "sigma_max_raw_mpa", "stop_time_s",
 )  # fmt: skip
 
 
@@ -121,10 +127,13 @@ def case_key(seed: int, params) -> jax.Array:
 
 
 def criteria_columns(outputs, criteria: LandingCriteria) -> dict:
-    """The passive-phase columns shared by every case function: each criterion's flag and margin
-    (limit - value, positive when met), the three maxima, stop time and energy-budget error."""
+    """The passive-phase columns shared by every case function: ``solve_ok``, ``criteria_met``
+    (solve_ok, stopped and the three criteria met), each criterion's flag and margin (limit - value,
+    positive when met), the three maxima (a_max and sigma_max filtered, CFC 60), the unfiltered
+    ``a_max_raw_g`` and ``sigma_max_raw_mpa``, stop time and energy-budget error."""
     o, c = outputs, criteria
     return dict(
+        solve_ok=o["solve_ok"],
         criteria_met=o["criteria_met"],
         z_ok=o["z_ok"],
         z_margin_m=c.z_max_m - o["z_max_m"],
@@ -135,6 +144,8 @@ def criteria_columns(outputs, criteria: LandingCriteria) -> dict:
         z_max_m=o["z_max_m"],
         a_max_g=o["a_max_g"],
         sigma_max_mpa=o["sigma_max_mpa"],
+        a_max_raw_g=o["a_max_raw_g"],
+        sigma_max_raw_mpa=o["sigma_max_raw_mpa"],
         stop_time_s=o["stop_time_s"],
         energy_budget_error=o["energy_budget_error"],
     )
@@ -143,7 +154,7 @@ def criteria_columns(outputs, criteria: LandingCriteria) -> dict:
 class AbstractLandingCaseFunction(AbstractCaseFunction):
     """A landing case function: its CSV columns start with the success flags and the criteria in a
     reading order, and a case that did not stop within ``t_end_s`` has no stop time (NaN
-    ``stop_time_s`` with ``stopped`` False is not a failure)."""
+    ``stop_time_s`` with ``stopped`` False is not a numerical failure; it is not a success either)."""
 
     @property
     def column_order(self) -> tuple[str, ...]:
@@ -160,9 +171,11 @@ class PassiveCaseFunction(AbstractLandingCaseFunction):
     ``params``: the capture states of ``UNCERTAIN_PARAMETERS`` (x_m ... omega_z_deg_s; scalars) and,
     with ``wind``, the wind angle, speed and gust intensity; delay and noise are ignored (see the
     module docstring). Outputs (scalars):
-    ``captured``, ``stopped``, ``success``, ``criteria_met``, per criterion its flag and margin,
-    ``z_max_m`` [m], ``a_max_g`` [g of 9.80 m/s^2], ``sigma_max_mpa`` [MPa], ``stop_time_s`` [s]
-    (NaN when not stopped), ``energy_budget_error`` [-], ``status_code`` (diffrax), ``num_steps``.
+    ``captured``, ``stopped``, ``solve_ok``, ``success`` (captured and ``criteria_met``),
+    ``criteria_met`` (solve_ok, stopped, three criteria met), per criterion its flag and margin,
+    ``z_max_m`` [m], ``a_max_g`` [g of 9.80 m/s^2] and ``sigma_max_mpa`` [MPa] (CFC 60 filtered),
+    ``a_max_raw_g``, ``sigma_max_raw_mpa`` (unfiltered), ``stop_time_s`` [s] (NaN when not stopped),
+    ``energy_budget_error`` [-], ``status_code`` (diffrax), ``num_steps``.
 
     The ``rigid`` level builds its scene inside the traced function (vmapped over the captures;
     differentiable in them). The ``ale`` and ``full`` levels mesh their cables with NumPy from the
@@ -252,7 +265,7 @@ class PassiveCaseFunction(AbstractLandingCaseFunction):
         out = dict(
             captured=captured,
             stopped=o["stopped"],
-            success=captured & o["stopped"] & o["criteria_met"],
+            success=captured & o["criteria_met"],
             **criteria_columns(o, self.criteria),
             status_code=r.status,
             num_steps=r.num_steps,
@@ -324,12 +337,15 @@ def passive_case_fn(
       reaches its largest drop at ~1.3-1.5 s. z_max over [0, 1.2 s] was up to 1.3 % below z_max
       over [0, 1.6 s]; z_max over [0, 2 s] is up to 1.8 % below z_max over [0, 4 s] (19 of 100
       cases differ by more than 0.1 %, the success count is the same). The criteria are maxima over
-      ``[0, t_end_s]``; a case not stopped by then is reported with ``stopped=False``, not failed.
+      ``[0, t_end_s]``; a case not stopped by then is reported with ``stopped=False``: not a
+      numerical failure, and not a success.
     * ``n_save`` = one sample per ``SAVE_SPACING_S`` = 1 ms (2001 at 2 s), the rule of the passive
       scene's own default grid (:data:`jaxcable.arresting.passive.SAVE_SPACING_S`, measurements
       there): the maxima are taken over the saved samples; against 0.25 ms sampling, 5 ms (401
       samples over 2 s, the scene's old default) misses a_max by up to 0.13 %,
-      2.5 ms by 0.03 %, 1 ms by 4e-5 (40 rigid cases), at no measurable extra run time.
+      2.5 ms by 0.03 %, 1 ms by 4e-5 (40 rigid cases, unfiltered maxima), at no measurable extra
+      run time. 1 ms is also what the criteria's CFC 60 filter needs (J211: 10 samples per period
+      of its 100 Hz 3 dB frequency).
     """
     check_choice("fidelity", fidelity, SWEEP_FIDELITIES)
     d_solver, d_rtol, d_atol, d_steps = LEVEL_DEFAULTS[fidelity]
@@ -428,8 +444,9 @@ def run_qmc_sweep(
 
 def summarize_sweep(table: dict, criteria: LandingCriteria = LandingCriteria()) -> dict:
     """Statistics of a sweep's columns: ``n_cases``, ``n_failed`` (numerically), ``n_captured``,
-    ``n_stopped``, ``n_success``, ``success_rate`` (0..1, successes over all cases), and per
-    criterion ``{min, max, mean, limit, n_ok, unit}`` over the cases that did not fail."""
+    ``n_stopped``, ``n_success``, ``success_rate`` (0..1, successes over all cases: a failed or
+    unstopped case is not a success), and per criterion ``{min, max, mean, limit, n_ok, unit}`` over
+    the cases that did not fail."""
     n = len(table["case"])
     failed = np.asarray(table["failed"], dtype=bool)
     good = ~failed

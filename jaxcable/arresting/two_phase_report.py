@@ -1,12 +1,17 @@
 """Reports of a two-phase landing (:func:`jaxcable.arresting.two_phase.run_two_phase`): the JSON
 summary of ``jaxcable land --phase full --json`` and a PNG like the paper's Figs 13-14 (arresting-cable
 paper, section IV.A). Re-exported by :mod:`jaxcable.arresting.two_phase`.
+
+``landed`` is the two-phase success: captured, tracking error at capture within tolerance, and the
+passive phase's ``criteria_met`` (solve succeeded, stopped, z_max, a_max and sigma_max within limits,
+a_max and sigma_max after the CFC 60 filter); ``unmet`` lists in words what kept a run from it.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from jaxcable.arresting.landing import unmet_conditions
 from jaxcable.arresting.passive import G_CRITERIA
 from jaxcable.core.simulate import status_message
 
@@ -29,15 +34,19 @@ def report_two_phase(run) -> dict:
             "capture_time_s",
             "captured_state",
             "frame_centre_at_capture_m",
+            "tracking_ok",
             "z_max_m",
             "a_max_g",
             "sigma_max_mpa",
+            "a_max_raw_g",
+            "sigma_max_raw_mpa",
             "stop_time_s",
             "criteria_met",
+            "solve_ok",
+            "stopped",
             "z_ok",
             "a_ok",
             "sigma_ok",
-            "stopped",
             "energy_budget_error",
         )
     }
@@ -50,9 +59,13 @@ def report_two_phase(run) -> dict:
     out["tracking_steps"] = int(o["tracking_steps"])
     out["solver_status"] = status_message(o["passive_status"])
     out["num_steps"] = int(o["passive_steps"])
+    out["filter_cfc_hz"] = float(run.criteria.filter_cfc_hz)
     out["fidelity"] = run.fidelity
     out["scenario"] = run.scenario
     out["phase"] = "full"
+    why = [] if o["captured"] else ["not captured"]
+    why += [] if o["tracking_ok"] else ["tracking error at capture over the tolerance"]
+    out["unmet"] = why + unmet_conditions(dict(o, solver_status=out["solver_status"]))
     return out
 
 

@@ -2,8 +2,10 @@
 at capture and runs the passive deceleration (:func:`jaxcable.arresting.landing.run_landing`, the
 design case by default); ``--phase full`` starts at the terminal-guidance point and runs tracking,
 capture and the passive phase (:func:`jaxcable.arresting.two_phase.run_two_phase`, a deviated
-terminal state by default). Reported: the criteria z_max, a_max, sigma_max and, for the passive
-phase alone, the energy budget."""
+terminal state by default). Reported: the criteria z_max, a_max, sigma_max (a_max and sigma_max after
+the SAE J211 CFC 60 filter, the unfiltered maxima beside them), whether the rocket stopped and the
+solve succeeded (a landing meets the criteria only if both hold), and, for the passive phase alone,
+the energy budget."""
 
 from __future__ import annotations
 
@@ -101,11 +103,23 @@ def _buffer(args: argparse.Namespace) -> BufferDevice:
 
 
 def _criteria_lines(out: dict) -> list[str]:
+    cfc = f"CFC {out['filter_cfc_hz']:g}"
     return [
-        f"  z_max        {out['z_max_m']:8.3f} m     (< 10 m: {_YES[out['z_ok']]})",
-        f"  a_max        {out['a_max_g']:8.3f} g     (< 5 g: {_YES[out['a_ok']]}; g = 9.80 m/s^2)",
-        f"  sigma_max    {out['sigma_max_mpa']:8.1f} MPa   (< 800 MPa: {_YES[out['sigma_ok']]})",
+        f"  z_max        {_num(out['z_max_m'], '8.3f')} m     (< 10 m: {_YES[out['z_ok']]})",
+        f"  a_max        {_num(out['a_max_g'], '8.3f')} g     (< 5 g: {_YES[out['a_ok']]}; {cfc}, raw "
+        f"{_num(out['a_max_raw_g'], '.3f')} g; g = 9.80 m/s^2)",
+        f"  sigma_max    {_num(out['sigma_max_mpa'], '8.1f')} MPa   (< 800 MPa: {_YES[out['sigma_ok']]}; {cfc}, raw "
+        f"{_num(out['sigma_max_raw_mpa'], '.1f')} MPa)",
     ]
+
+
+def _num(value, fmt: str) -> str:
+    return "nan" if value is None else format(value, fmt)
+
+
+def _verdict(met: bool, unmet: list[str]) -> str:
+    """``yes``, or ``NO`` with the reasons (``not stopped within t_end``, ``solver: ...``)."""
+    return _YES[met] if met or not unmet else f"NO ({'; '.join(unmet)})"
 
 
 def _passive(args: argparse.Namespace) -> Report:
@@ -135,8 +149,8 @@ def _passive(args: argparse.Namespace) -> Report:
     lines = [
         f"passive deceleration, fidelity {landing.fidelity}",
         *_criteria_lines(out),
-        f"  stop time    {st:8.3f} s" if st is not None else "  stop time    not stopped",
-        f"  criteria met {_YES[out['criteria_met']]}",
+        f"  stop time    {st:8.3f} s" if st is not None else f"  stop time    not stopped within t_end = {args.t_end:g} s",
+        f"  criteria met {_verdict(out['criteria_met'], out['unmet'])}",
         "  energy budget, change since capture [kJ]:",
         *(f"    {k:28s} {v / 1e3:10.1f}" for k, v in out["energy_budget_J"].items()),
         f"  budget closes to {out['energy_budget_error']:.2e} of the input energy",
@@ -186,7 +200,9 @@ def _two_phase(args: argparse.Namespace) -> Report:
         f"  captured state    x {c['x_m']:.2f} m, y {c['y_m']:.2f} m, v ({c['vx_m_s']:.2f}, {c['vy_m_s']:.2f}, "
         f"{c['vz_m_s']:.2f}) m/s, theta ({c['theta_x_deg']:.2f}, {c['theta_y_deg']:.2f}, {c['theta_z_deg']:.2f}) deg",
         *_criteria_lines(out),
-        f"  landed (all criteria) {_YES[out['landed']]}",
+        f"  stop time    {out['stop_time_s']:.3f} s after capture" if out["stop_time_s"] is not None
+        else f"  stop time    not stopped within t_end = {args.t_end:g} s",
+        f"  landed (all criteria) {_verdict(out['landed'], out['unmet'])}",
         f"  solver       tracking {out['tracking_solver_status']} ({out['tracking_steps']} steps), "
         f"passive {out['solver_status']} ({out['num_steps']} steps)",
     ]
