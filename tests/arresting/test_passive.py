@@ -15,10 +15,21 @@ from jaxcable import simulate
 from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.landing import report_landing, run_landing
 from jaxcable.arresting.layout import ArrestingLayout, CaptureState
-from jaxcable.arresting.passive import SAVE_SPACING_S, passive_landing_scene, smooth_landing_outputs
+from jaxcable.arresting.passive import (
+    SAVE_SPACING_S,
+    LandingCriteria,
+    filtered_maxima,
+    passive_landing_scene,
+    smooth_landing_outputs,
+)
 from jaxcable.components.wind import WindField
+from jaxcable.core.filters import cfc_gain
 
-KEYS = ("z_max_m", "a_max_g", "sigma_max_mpa", "stop_time_s", "criteria_met", "solver_status")
+KEYS = ("z_max_m", "a_max_g", "sigma_max_mpa", "a_max_raw_g", "sigma_max_raw_mpa", "stop_time_s", "criteria_met",
+        "solve_ok", "stopped", "z_ok", "a_ok", "sigma_ok", "solver_status", "filter_cfc_hz", "unmet")  # fmt: skip
+FLAGS = ("solve_ok", "stopped", "z_ok", "a_ok", "sigma_ok")
+STIFF = dict(layout=ArrestingLayout(EA_N=2.64e11), cable_damping_s=1e-2)
+"""The rigid level's 1-DOF limit: 1000x stiffer cables, damped (beta = 1e-2 s)."""
 
 
 @pytest.fixture(scope="module")
@@ -42,16 +53,89 @@ def test_rigid_level_design_case_closes_energy_budget(one_dof):
     for k in KEYS:
         assert k in rep
     json.dumps(rep)
+    # success is the conjunction of the flags; z_max is 10.24 m here (Table 1's buffer, see the docs)
+    assert rep["criteria_met"] == all(rep[f] for f in FLAGS) and not rep["z_ok"] and not rep["criteria_met"]
+    assert "z_max over the limit" in rep["unmet"] and rep["solve_ok"] and rep["stopped"]
+    # the peaks are the ~5 Hz cable-counterweight ringing, in CFC 60's pass band (gain 1 - 2e-6 at
+    # 5 Hz): filtering moves them by less than 1e-5 (measured 1e-6 and 5e-7)
+    assert float(cfc_gain(5.0, 60.0, 1e-3)) > 1.0 - 1e-5
+    assert o["a_max_g"] == pytest.approx(o["a_max_raw_g"], rel=1e-5)
+    assert o["sigma_max_mpa"] == pytest.approx(o["sigma_max_raw_mpa"], rel=1e-5)
 
 
 def test_rigid_level_converges_to_one_dof_with_stiff_damped_cables(one_dof):
     """The 1-DOF model is the rigid-cable limit: 1000x stiffer cables with stiffness-proportional
     damping (beta = 1e-2 s overdamps the cable-counterweight mode, which a rigid cable does not have)
-    reproduce z_max, a_max and peak cable stress to 1%."""
-    run = run_landing("rigid", layout=ArrestingLayout(EA_N=2.64e11), cable_damping_s=1e-2, t_end_s=1.0)
+    reproduce z_max, the raw a_max and peak cable stress and the stop to 1% (measured 0.02-0.25%).
+
+    The filtered (CFC 60) maxima agree to 2%: the filter rings on a sharp change (3.8% overshoot on an
+    ideal step). At the stop the rigid cable's deceleration drops to zero at once, the stiff
+    cable's within a few ms, so the 1-DOF model's filtered a_max is the higher one (measured 1.5%);
+    at capture the 1-DOF stress jumps from 0 to 437 MPa, the stiff cable's rises within ~4 ms
+    (0.6%). Both filtered a_max exceed the raw ones: the peak is the end of the stroke, right
+    before that drop."""
+    run = run_landing("rigid", t_end_s=1.0, **STIFF)
     o = run.outputs
-    for key in ("z_max_m", "a_max_g", "sigma_max_mpa", "stop_time_s"):
+    for key in ("z_max_m", "a_max_raw_g", "sigma_max_raw_mpa", "stop_time_s"):
         assert o[key] == pytest.approx(one_dof[key], rel=0.01), key
+    for key in ("a_max_g", "sigma_max_mpa"):
+        assert o[key] == pytest.approx(one_dof[key], rel=0.02), key
+    for out in (o, one_dof):
+        assert out["a_max_raw_g"] < out["a_max_g"] < 1.04 * out["a_max_raw_g"]
+
+
+def test_unfinished_landings_do_not_meet_the_criteria():
+    """A landing meets the criteria only if the solve succeeded, the rocket stopped and z_max, a_max,
+    sigma_max are within their limits. 0.3 s of the damped design case is within every limit so far
+    but still descending; a run out of solver steps has solve_ok False; both say why, in the JSON
+    report (``unmet``) and the text report."""
+    from jaxcable.cli import main as cli_main
+
+    short = report_landing(run_landing("rigid", t_end_s=0.3, cable_damping_s=1e-2))
+    assert short["z_ok"] and short["a_ok"] and short["sigma_ok"] and short["solve_ok"]
+    assert not short["stopped"] and short["stop_time_s"] is None
+    assert not short["criteria_met"] and short["unmet"] == ["not stopped within t_end"]
+    steps = report_landing(run_landing("rigid", t_end_s=1.0, max_steps=50))
+    assert steps["solver_status"] == "max_steps_reached" and not steps["solve_ok"]
+    assert not steps["criteria_met"] and steps["unmet"][:2] == ["solver: max_steps_reached", "not stopped within t_end"]
+    # the samples after the early end are inf; the filtered maxima over the samples before it are finite
+    assert np.isfinite(steps["a_max_g"]) and np.isfinite(steps["sigma_max_mpa"])
+    # the same run through the command line's text report
+    text = _land_text(cli_main, ["--fidelity", "rigid", "--t-end", "0.3", "--cable-damping", "1e-2"])
+    assert "not stopped within t_end = 0.3 s" in text and "criteria met NO (not stopped within t_end)" in text
+    one = report_landing(run_landing("1dof", t_end_s=0.5))  # the 1-DOF model too
+    assert not one["stopped"] and not one["criteria_met"] and one["unmet"] == ["not stopped within t_end"]
+
+
+def _land_text(cli_main, argv):
+    import contextlib
+    import io
+
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        cli_main(["land", *argv])
+    return buf.getvalue()
+
+
+def test_filtered_maxima_converge_with_the_save_spacing():
+    """The filtered criteria are a property of the landing, not of its sampling: on the stiff-cable
+    case (sharp rises at capture and at the stop, the hardest for the filter to resolve), one solve
+    saved every 0.25 ms, its records taken every 2, 1, 0.5 and 0.25 ms (the saved grid does not move
+    the adaptive steps), the filtered a_max and sigma_max change less and less. Measured: a_max
+    4.1912, 4.1687, 4.1660, 4.1662 g (changes 2.2e-2, 2.8e-3, 2.5e-4 g), sigma_max 454.23, 449.64,
+    448.84, 448.67 MPa (changes 4.6, 0.80, 0.17 MPa): 1 ms is within 0.07% / 0.2% of 0.25 ms.
+    (The raw maxima converge differently: the raw stress peak, a few samples wide, keeps rising as
+    the grid refines.)"""
+    run = run_landing("rigid", t_end_s=1.0, save_spacing_s=2.5e-4, **STIFF)
+    values = []
+    for k in (8, 4, 2, 1):
+        m = filtered_maxima(run.ts[::k], {key: run.probes[key][::k] for key in ("acceleration_m_s2", "stress_max_pa")})
+        values.append([float(m["a_max_g"]), float(m["sigma_max_mpa"])])
+    values = np.array(values)
+    changes = np.abs(np.diff(values, axis=0))  # (3, 2): 2 -> 1 ms, 1 -> 0.5 ms, 0.5 -> 0.25 ms
+    assert np.all(changes[1] < changes[0] / 3) and np.all(changes[2] < changes[1] / 3), changes
+    np.testing.assert_allclose(values[1], values[3], rtol=3e-3)  # the scenes' 1 ms against 0.25 ms
+    assert run.outputs["a_max_g"] == pytest.approx(values[3, 0], rel=1e-12)  # the run's own output
 
 
 @pytest.mark.slow
@@ -74,8 +158,12 @@ def test_full_level_converges_to_one_dof_with_stiff_massless_cables_and_stiff_ho
     o = run.outputs
     assert o["solver_status"] == "successful"
     assert o["energy_budget_error"] < 1e-4
-    for key in ("z_max_m", "a_max_g", "sigma_max_mpa", "stop_time_s"):
+    for key in ("z_max_m", "a_max_raw_g", "sigma_max_raw_mpa", "stop_time_s"):
         assert o[key] == pytest.approx(one_dof[key], rel=0.01), key
+    # the filtered maxima: as at the rigid level (test above), the filter's ringing on the rigid
+    # cable's sudden stop and capture against the stiff cable's few-ms ones
+    for key in ("a_max_g", "sigma_max_mpa"):
+        assert o[key] == pytest.approx(one_dof[key], rel=0.02), key
 
 
 def test_cable_model_is_a_component_choice():
@@ -121,7 +209,11 @@ def test_smooth_outputs_gradients_match_finite_differences():
         assert np.allclose(jac[:, j], fd, rtol=0.02, atol=0.02 * scale), (j, jac[:, j], fd)
     soft, hard = outputs(x0)
     n = scene.default_save_ts(1.0).shape[0]  # one sample per ms: 1001
-    assert float(hard["z_max_m"]) <= float(soft[0]) <= float(hard["z_max_m"]) + 0.05 * np.log(n)
+    # each soft maximum is within its bias (width log n) above the hard one: a_max and sigma_max
+    # over the same CFC-filtered histories
+    widths = (0.05, 0.05, 5.0)
+    for i, key in enumerate(("z_max_m", "a_max_g", "sigma_max_mpa")):
+        assert float(hard[key]) <= float(soft[i]) <= float(hard[key]) + widths[i] * np.log(n), key
 
 
 def test_bad_input_gets_clear_errors():
@@ -168,13 +260,20 @@ def test_saved_grid_has_a_fixed_spacing_so_the_maxima_do_not_depend_on_the_durat
         assert runs[1.0].outputs[key] == pytest.approx(runs[2.0].outputs[key], rel=1e-9), key
     # an explicit spacing or count still sets the grid
     assert passive_landing_scene("rigid", save_spacing_s=2e-3).default_save_ts(1.0).shape == (501,)
-    assert passive_landing_scene("rigid", n_save=401).default_save_ts(2.0).shape == (401,)
+    assert passive_landing_scene("rigid", n_save=1001).default_save_ts(2.0).shape == (1001,)
+    # but not one too coarse for the criteria's CFC 60 filter (design frequency 124.65 Hz below the
+    # Nyquist frequency: a spacing below 4.01 ms)
+    with pytest.raises(ValueError, match="n_save = 401 gives saved samples 0.005 s apart"):
+        passive_landing_scene("rigid", n_save=401).default_save_ts(2.0)
 
 
 def test_bad_save_grid_gets_clear_errors():
-    for bad in (0.0, -1e-3, float("nan"), float("inf")):
+    for bad in (0.0, -1e-3, float("nan"), float("inf"), 5e-3):
         with pytest.raises(ValueError, match="save_spacing_s"):
             passive_landing_scene("rigid", save_spacing_s=bad)
+    for bad in (0.0, -60.0, float("nan")):
+        with pytest.raises(ValueError, match="filter_cfc_hz"):
+            LandingCriteria(filter_cfc_hz=bad)
     for bad in (1, 0, 2.5, True):
         with pytest.raises(ValueError, match="n_save"):
             passive_landing_scene("rigid", n_save=bad)
@@ -299,7 +398,9 @@ def test_cli_land_json():
     data = json.loads(out.stdout)
     for k in KEYS:
         assert k in data
-    assert isinstance(data["criteria_met"], bool)
+    assert isinstance(data["criteria_met"], bool) and isinstance(data["solve_ok"], bool)
+    assert data["filter_cfc_hz"] == 60.0
+    assert data["criteria_met"] == all(data[f] for f in FLAGS)
     # --cable-damping reaches the cables: beta = 1e-2 s damps the cable-counterweight ringing
     # (docs/arresting_design.md: a_max 7.04 -> 4.28 g at the rigid level), and the budget, which
     # books the damping's dissipation, still closes
