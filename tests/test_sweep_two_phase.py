@@ -138,7 +138,8 @@ def test_histories_agree_with_rows_and_descend_at_h_over_tc(cli_run):
         np.testing.assert_allclose(tr["captured_position_m"][:, k], table[f"{CAPTURED_PREFIX}{axis}_m"], rtol=1e-5, atol=1e-6)
     np.testing.assert_array_equal(tr["captured"], table["captured"])
     np.testing.assert_allclose(np.nanmax(pa["drop_m"], axis=1), table["z_max_m"], rtol=1e-5)
-    np.testing.assert_allclose(np.nanmax(pa["stress_max_mpa"], axis=1), table["sigma_max_mpa"], rtol=1e-5)
+    # (the histories are unfiltered: their maxima are the raw ones; the criteria are after CFC 60)
+    np.testing.assert_allclose(np.nanmax(pa["stress_max_mpa"], axis=1), table["sigma_max_raw_mpa"], rtol=1e-5)
     # the trajectory's saved samples end before capture, the last within one save interval of it
     last = np.nanmax(ts, axis=1)
     assert np.all(last <= table["capture_time_s"]) and np.all(table["capture_time_s"] - last <= 1.5 * t_c / 200 + 1e-9)

@@ -298,7 +298,9 @@ class PassiveCaseFunction(AbstractLandingCaseFunction):
 def passive_histories(result) -> dict:
     """Figs 18-20 from a passive scene's :class:`~jaxcable.core.simulate.Result`: ``ts`` (time since
     capture [s]), ``drop_m`` [m], ``acceleration_g`` (|a| of the centre of mass [g]),
-    ``stress_max_mpa`` [MPa] on the saved grid (n_save,); NaN after a failed run ended."""
+    ``stress_max_mpa`` [MPa] on the saved grid (n_save,); NaN after a failed run ended. Unfiltered:
+    their maxima are ``a_max_raw_g`` and ``sigma_max_raw_mpa`` (the criteria a_max and sigma_max are
+    taken after the CFC 60 filter)."""
     finite = jnp.isfinite(result.ts)
     acc = jnp.linalg.norm(result.probes["acceleration_m_s2"], axis=1) / G_CRITERIA
     mask = lambda v: jnp.where(finite, v, jnp.nan)  # noqa: E731

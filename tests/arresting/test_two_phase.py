@@ -101,10 +101,16 @@ def test_command_line_json(capsys):
     rc = main(["land", "--phase", "full", "--fidelity", "rigid", "--t-end", "1.5", "--json"])
     out = json.loads(capsys.readouterr().out)
     assert rc == 0
-    for k in ("captured", "tracking_error_m", "captured_state", "z_max_m", "a_max_g", "sigma_max_mpa",
-              "stop_time_s", "criteria_met", "solver_status"):  # fmt: skip
+    for k in ("captured", "tracking_error_m", "captured_state", "z_max_m", "a_max_g", "sigma_max_mpa", "a_max_raw_g",
+              "sigma_max_raw_mpa", "stop_time_s", "criteria_met", "solve_ok", "stopped", "landed", "unmet",
+              "solver_status"):  # fmt: skip
         assert k in out, k
     assert isinstance(out["captured"], bool) and isinstance(out["criteria_met"], bool)
+    # landed: captured, tracked, and the passive phase solved, stopped and within the three limits
+    passive = out["solve_ok"] and out["stopped"] and out["z_ok"] and out["a_ok"] and out["sigma_ok"]
+    assert out["passive_criteria_met"] == passive
+    assert out["landed"] == (out["captured"] and out["tracking_ok"] and passive)
+    assert out["landed"] == (out["unmet"] == [])
     assert set(out["captured_state"]) >= {"x_m", "y_m", "vx_m_s", "theta_x_deg", "omega_z_deg_s"}
 
 
