@@ -209,6 +209,8 @@ def test_cli_json(problem, at_paper, capsys):
         assert before["criteria"]["smooth"][key]["worst"] == pytest.approx(smooth.max(), rel=1e-12)
         assert before["criteria"]["hard"][key]["margin"] == pytest.approx(1.0 - hard.max() / limit, rel=1e-12)
         ok &= hard < limit
+    # a case lands when it also ran to completion: solved and stopped within t_end
+    ok &= np.asarray(aux["completed"], dtype=bool)
     assert before["criteria"]["success_rate"] == pytest.approx(ok.mean())
     # "after" is the best point of the history it prints: the lowest objective among the steps
     # with the highest success rate on the batch
@@ -354,6 +356,28 @@ def test_two_phase_objective_terms_by_hand():
     tail = objective_terms(_full_problem_without_simulating(tail_criterion="capture_margin", tail_form="exact",
                                                             alpha=2.0 / 3.0), jnp.array([1000.0, 3.0]), smooth)["tail"]  # fmt: skip
     assert float(tail) == pytest.approx(r[:, 3].max(), rel=1e-13)
+
+
+def test_success_rate_counts_only_completed_landings():
+    """A case whose criteria are all within their limits but whose run did not complete (the solve
+    failed, or the rocket had not stopped by t_end) is not a success; the per-criterion rates still
+    count it (made-up per-case criteria, no simulation)."""
+    from jaxcable.arresting.design_objective import criteria_summary, history_record
+
+    problem = _full_problem_without_simulating(tail=0.0)
+    hard = dict(
+        z_max_m=jnp.array([9.0, 9.0, 9.0, 11.0]),
+        a_max_g=jnp.array([4.0, 4.0, 4.0, 4.0]),
+        sigma_max_mpa=jnp.array([700.0, 700.0, 700.0, 700.0]),
+        capture_margin_m=jnp.array([0.5, 0.5, 0.5, 0.5]),
+        tracking_error_m=jnp.array([0.1, 0.1, 0.1, 0.1]),
+    )
+    aux = dict(hard=hard, smooth=hard, completed=np.array([True, False, True, True]),
+               status=np.zeros(4, int), num_steps=np.ones(4, int))  # fmt: skip
+    summary = criteria_summary(problem, aux)
+    assert summary["success_rate"] == 0.5  # case 1 did not complete, case 3 is over z_max
+    assert summary["success_rate_per_criterion"]["z_max_m"] == 0.75
+    assert history_record(problem)(aux)[1] == 0.5
 
 
 FULL_SETTINGS = dict(n=2, scenario="III", t_end_s=0.5, rtol=1e-8, atol=1e-8)
