@@ -21,6 +21,7 @@ from collections.abc import Callable
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from jax.flatten_util import ravel_pytree
 
@@ -81,7 +82,21 @@ class CableLinearisation(eqx.Module):
         F = banded.factor(*A_rr)
         Y = jax.vmap(lambda col: banded.solve(F, col), in_axes=-1, out_axes=-1)(A_rz)  # A_rr^-1 A_rz
         S = A_zz - jnp.einsum("cnis,cnit->cst", A_zr, Y)
-        return _CableFactors(F, Y, A_zr, jnp.linalg.inv(S), self, beta)
+        return _CableFactors(F, Y, A_zr, _small_inverse(S), self, beta)
+
+
+def _small_inverse(S):
+    """Inverse of small (..., k, k) matrices with positive pivots (the Schur complement of the
+    positive definite ``beta^2 M - beta C - K`` on the border): Gauss-Jordan without pivoting,
+    unrolled (k static), elementwise steps that XLA fuses; no LAPACK call."""
+    k = S.shape[-1]
+    eye = jnp.broadcast_to(jnp.eye(k, dtype=S.dtype), S.shape)
+    M = jnp.concatenate([S, eye], axis=-1)
+    rows = np.arange(k)[:, None]
+    for i in range(k):
+        pivot_row = M[..., i, :] / M[..., i, i : i + 1]
+        M = jnp.where(rows == i, pivot_row[..., None, :], M - M[..., :, i : i + 1] * pivot_row[..., None, :])
+    return M[..., k:]
 
 
 def _slow(s, u):

@@ -1,0 +1,192 @@
+"""The W-method on the ALE cables: structured linearisation and bordered solve against dense
+references, stiff limits that explicit solvers cannot take, the energy budget, gradients against
+central differences, vmap against single runs.
+
+A small mesh (4 span elements, 2 of them fine) keeps the compile short; the structure (internal
+nodes in three chains per cable, pulleys and the moving block as the border, four cables, contact
+with the hooks) is the one of the default mesh."""
+
+import diffrax
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from jax.flatten_util import ravel_pytree
+
+from jaxcable import simulate
+from jaxcable.arresting.passive import passive_landing_scene
+from jaxcable.arresting.stiff import dense_reference
+from jaxcable.components.contact import ContactLaw
+from jaxcable.core.config import enable_x64
+from jaxcable.core.rosenbrock import RosenbrockW
+
+enable_x64()
+
+T_END = 0.01  # [s]: the capture and the hook pick-up of the cable
+MESH = dict(n_span_elements=4, n_fine=2)
+
+
+def _scene(beta=1e-5, **kw):
+    return passive_landing_scene("ale", t_end_s=T_END, cable_damping_s=beta, **MESH, **kw)
+
+
+def _moving_state(scene):
+    """The capture state with the cables already moving (0.5 m/s downward at every internal node,
+    0.2 m/s material flow over the pulleys), so the damping and friction terms are exercised."""
+    y = scene.initial_state()
+    qdot = y.cables.qdot
+    qdot = eqx.tree_at(lambda d: (d.r, d.s), qdot, (qdot.r.at[..., 2].set(-0.5), qdot.s + 0.2))
+    return eqx.tree_at(lambda s: s.cables.qdot, y, qdot)
+
+
+SOLVER = RosenbrockW(jacobian_every=4)
+
+
+def test_blocks_equal_the_dense_jacobian_of_the_cable_forces():
+    scene = _scene(beta=1e-3)
+    y = _moving_state(scene)
+    hooks = scene.hooks(y.rocket)
+    touching = float(scene.probe(0.0, y)["contact_pairs_touching"])
+    assert touching > 0  # the hooks press on the cables: the contact blocks are exercised
+    blocks = jax.jit(lambda y: scene.cables.stiff_blocks(y.cables, hooks, 0.0))(y)
+    q, qdot = y.cables.q, y.cables.qdot
+
+    def forces(q_, qdot_):
+        st = eqx.tree_at(lambda s: (s.q, s.qdot), y.cables, (q_, qdot_))
+        return scene.cables.cable_forces(st, hooks, 0.0)
+
+    # output first: (d Q_r / d (q, qdot), d Q_slow / d (q, qdot))
+    jac_r, jac_z = jax.jit(jax.jacfwd(forces, argnums=(0, 1)))(q, qdot)
+    n = q.r.shape[1]
+    for arg, tri, rz, zz in ((0, "K_rr", "K_rz", "K_zz"), (1, "C_rr", "C_rz", "C_zz")):
+        d_rr = np.asarray(jac_r[arg].r)  # (4, n, 3, 4, n, 3)
+        lower, diag, upper = (np.asarray(b) for b in blocks[tri])
+        scale = np.abs(d_rr).max()
+        for c in range(4):
+            for j in range(n):
+                np.testing.assert_allclose(diag[c, j], d_rr[c, j, :, c, j, :], atol=1e-9 * scale)
+                if j > 0:
+                    np.testing.assert_allclose(lower[c, j], d_rr[c, j, :, c, j - 1, :], atol=1e-9 * scale)
+                if j < n - 1:
+                    np.testing.assert_allclose(upper[c, j], d_rr[c, j, :, c, j + 1, :], atol=1e-9 * scale)
+                # nothing beyond the neighbours, and nothing between cables (the hooks held fixed)
+                far = [k for k in range(n) if abs(k - j) > 1]
+                assert np.abs(d_rr[c, j, :, c, far, :]).max(initial=0.0) <= 1e-12 * scale
+                others = [k for k in range(4) if k != c]
+                assert np.abs(d_rr[c, j, :, others]).max() <= 1e-12 * scale
+        # the border's columns (pulley s, block u) on the internal rows and on the border rows
+        cols_r = np.concatenate([np.asarray(jac_r[arg].s), np.asarray(jac_r[arg].u)[..., None]], axis=-1)
+        cols_z = np.concatenate([np.asarray(jac_z[arg].s), np.asarray(jac_z[arg].u)[..., None]], axis=-1)
+        for c in range(4):
+            np.testing.assert_allclose(np.asarray(blocks[rz])[c], cols_r[c, :, :, c], atol=1e-9 * np.abs(cols_r).max())
+            np.testing.assert_allclose(np.asarray(blocks[zz])[c], cols_z[c, :, c], atol=1e-9 * np.abs(cols_z).max())
+
+
+@pytest.mark.parametrize("h", [1e-4, 2e-3])
+def test_structured_step_equals_the_dense_reference(h):
+    """One step of the same method with the same ``J``, solved densely (LU of the assembled
+    ``beta I - J``) and with the block-tridiagonal bordered solve: the same new state and the same
+    error estimate (hence the same step-size decisions) to round-off; at a step where the stiff
+    modes are far beyond ``1 / h`` (2 ms) as at one that resolves them (0.1 ms)."""
+    scene = _scene(beta=1e-3)
+    y = _moving_state(scene)
+    term = diffrax.ODETerm(lambda t, y, args: scene.vector_field(t, y))
+    structured = RosenbrockW(linearise=scene.stiff_linearisation)
+    dense = RosenbrockW(linearise=lambda t, y: dense_reference(scene.stiff_linearisation(t, y), y))
+
+    @jax.jit
+    def step(y):
+        out = []
+        for solver in (structured, dense):
+            state = solver.init(term, 0.0, h, y, None)
+            y1, err, *_ = solver.step(term, 0.0, h, y, None, state, False)
+            out.append((ravel_pytree(y1)[0], ravel_pytree(err)[0]))
+        return out
+
+    (y_s, e_s), (y_d, e_d) = step(y)
+    scale = np.abs(np.asarray(y_d)).max()
+    np.testing.assert_allclose(np.asarray(y_s), np.asarray(y_d), atol=1e-10 * scale)
+    np.testing.assert_allclose(np.asarray(e_s), np.asarray(e_d), atol=1e-10 * scale)
+    assert np.all(np.isfinite(np.asarray(y_s)))
+
+
+@pytest.fixture(scope="module")
+def stiff_runs():
+    """One compiled solve, four variants: default, beta = 1e-2 s, contact stiffness x10, both."""
+    base = ContactLaw(v_s=0.5, v_d=1.25)
+    variants = {
+        "default": _scene(beta=1e-5, contact=base),
+        "beta 1e-2": _scene(beta=1e-2, contact=base),
+        "contact x10": _scene(beta=1e-5, contact=eqx.tree_at(lambda c: c.k, base, base.k * 10.0)),
+        "both": _scene(beta=1e-2, contact=eqx.tree_at(lambda c: c.k, base, base.k * 10.0)),
+    }
+    return {k: simulate(s, T_END, solver=SOLVER, rtol=1e-6, atol=1e-6) for k, s in variants.items()}
+
+
+def test_stiff_limits_run_and_close_the_energy_budget(stiff_runs):
+    """beta = 1e-2 s needs explicit steps of ~1e-6 s on the fine elements (the stability limit of
+    central differences with stiffness-proportional damping, ``../shared/notes/stiff-cables.md``);
+    here the run takes a few hundred steps and the energy budget closes to 1e-4 of the initial
+    energy."""
+    for name, r in stiff_runs.items():
+        o = r.outputs
+        assert r.status_message == "successful", name
+        for k in ("z_max_m", "a_max_g", "sigma_max_mpa", "energy_budget_error"):
+            assert np.isfinite(float(o[k])), (name, k)
+        assert float(o["energy_budget_error"]) < 1e-4, (name, float(o["energy_budget_error"]))
+        # an explicit solver at 1e-6 s would take 1e4 steps over these 10 ms
+        assert int(r.num_steps) < 2_000, (name, int(r.num_steps))
+
+
+def test_damping_dissipates_what_the_rayleigh_function_says(stiff_runs):
+    """With beta = 1e-2 s the cables' dissipation (integrated ``2 D = beta EA sum L eps_dot^2``) is
+    far above the default's, and the stored + dissipated energy still balances (budget above)."""
+    e_hi = float(stiff_runs["beta 1e-2"].probes["energy"]["dissipated_brakes_damping"][-1])
+    e_lo = float(stiff_runs["default"].probes["energy"]["dissipated_brakes_damping"][-1])
+    assert e_hi > 10.0 * max(e_lo, 1.0)
+
+
+def _final_vz(scene, adjoint):
+    def f(mass_scale):
+        scene_ = eqx.tree_at(
+            lambda s: s.cables.subsystems.buffer.counterweight_mass_kg,
+            scene,
+            scene.cables.subsystems.buffer.counterweight_mass_kg * mass_scale,
+        )
+        r = simulate(scene_, 5e-3, solver=SOLVER, rtol=1e-8, atol=1e-8, adjoint=adjoint, save_ts=jnp.array([0.0, 5e-3]))
+        return jnp.ravel(r.final_state.rocket.v)[2]  # vertical velocity of the (first) body [m/s]
+
+    return f
+
+
+@pytest.mark.slow
+def test_gradients_match_central_differences_forward_and_reverse():
+    """d(vertical velocity at 5 ms)/d(counterweight mass scale) through the W-method (its
+    linearisation and structured solves included), forward and reverse mode, against central
+    differences of the same solve."""
+    scene = _scene(beta=1e-3)
+    f_rev = _final_vz(scene, diffrax.RecursiveCheckpointAdjoint())
+    f_fwd = _final_vz(scene, diffrax.ForwardMode())
+    g_rev = float(jax.jit(jax.grad(f_rev))(1.0))
+    g_fwd = float(jax.jit(lambda x: jax.jvp(f_fwd, (x,), (1.0,))[1])(1.0))
+    h = 1e-3
+    fd = float((jax.jit(f_rev)(1.0 + h) - jax.jit(f_rev)(1.0 - h)) / (2 * h))
+    assert np.isfinite(g_rev) and np.isfinite(g_fwd)
+    assert g_fwd == pytest.approx(g_rev, rel=1e-6)
+    assert g_rev == pytest.approx(fd, rel=1e-3, abs=1e-6)
+
+
+@pytest.mark.slow
+def test_vmap_equals_single_runs(stiff_runs):
+    betas = jnp.array([1e-4, 1e-2])
+
+    base = _scene(beta=1e-4, contact=ContactLaw(v_s=0.5, v_d=1.25))
+
+    def z_max(beta):
+        scene = eqx.tree_at(lambda s: s.cables.subsystems.cable.damping_s, base, jnp.full(4, beta))
+        return simulate(scene, T_END, solver=SOLVER, rtol=1e-6, atol=1e-6).outputs["sigma_max_mpa"]
+
+    batched = np.asarray(jax.vmap(z_max)(betas))
+    single = np.array([float(z_max(b)) for b in betas])
+    np.testing.assert_allclose(batched, single, rtol=1e-9)
