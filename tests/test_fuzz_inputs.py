@@ -239,7 +239,7 @@ MODULE_FIELDS = {
             st.sampled_from(["1,2", [1.0, "x"], 3 + 1j]),
         ),
     },
-    LandingCriteria: {f: bad_number(0.0, low_open=True) for f in ("z_max_m", "a_max_g", "sigma_max_mpa")},
+    LandingCriteria: {f: bad_number(0.0, low_open=True) for f in ("z_max_m", "a_max_g", "sigma_max_mpa", "filter_cfc_hz")},
     TrackingController: {
         "gain_per_s": bad_number(0.0, 100.0, low_open=True),
         "derivative_gain": bad_number(0.0, 100.0),
