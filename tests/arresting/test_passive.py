@@ -142,7 +142,8 @@ def test_filtered_maxima_converge_with_the_save_spacing():
 def test_full_level_converges_to_one_dof_with_stiff_massless_cables_and_stiff_hooks(one_dof):
     """The full level's rocket (5 flexible bodies) and hinged, sprung hooks, with the cables' mass
     taken to zero (the massless cable component), 1000x stiffer damped cables and 100x stiffer
-    hook springs, reproduce the 1-DOF model to 1% (measured 0.07-0.34% at rtol 1e-5). The 1-DOF model has no
+    hook springs, reproduce the 1-DOF model to 1% (z_max, the stop and the unfiltered a_max and sigma_max;
+    measured 0.07-0.34% at rtol 1e-5). The 1-DOF model has no
     cable mass and no hook compliance: with Table 1's hook spring (1.5e5 N/m) the hooks' rotation
     under load adds stroke (z_max +1.2%, a_max -1.3%, stop time +3.6%, measured), and
     the ALE cable's own mass has kinetic energy of the counterweights' order (docs/arresting_design.md)."""
@@ -160,10 +161,13 @@ def test_full_level_converges_to_one_dof_with_stiff_massless_cables_and_stiff_ho
     assert o["energy_budget_error"] < 1e-4
     for key in ("z_max_m", "a_max_raw_g", "sigma_max_raw_mpa", "stop_time_s"):
         assert o[key] == pytest.approx(one_dof[key], rel=0.01), key
-    # the filtered maxima: as at the rigid level (test above), the filter's ringing on the rigid
-    # cable's sudden stop and capture against the stiff cable's few-ms ones
-    for key in ("a_max_g", "sigma_max_mpa"):
-        assert o[key] == pytest.approx(one_dof[key], rel=0.02), key
+    # the filtered maxima. sigma_max as at the rigid level (test above; measured 0.8%). a_max: the
+    # sprung hooks and the flexible rocket soften the stop further than the stiff cables alone, so
+    # the filter hardly rings here (filtered 4.095 g, raw 4.090 g), while the rigid cable's sudden
+    # stop rings by 3.4% (4.23 g): the filtered a_max lies between the level's raw one and the
+    # 1-DOF model's filtered one
+    assert o["sigma_max_mpa"] == pytest.approx(one_dof["sigma_max_mpa"], rel=0.02)
+    assert o["a_max_raw_g"] <= o["a_max_g"] <= one_dof["a_max_g"]
 
 
 def test_cable_model_is_a_component_choice():
