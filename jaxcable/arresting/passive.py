@@ -38,9 +38,12 @@ components of the centre of mass's acceleration each filtered (J211 filters each
 resultant is formed after), and sigma_max the maximum of the filtered history of the largest cable
 stress (one channel: the largest of the four cables' stresses at each sample). Why CFC 60:
 
-* J211 recommends CFC 60 for whole-vehicle accelerations used for the vehicle's motion (velocity,
-  displacement): a_max is the deceleration of the whole rocket, the quantity the 1-DOF design model
-  bounds (section II.B), not a local structural or payload load (CFC 180 and up).
+* J211 recommends CFC 60 for vehicle structural accelerations compared as a whole vehicle (and as
+  collision-simulation input), and for barrier-force and belt load cells. a_max is the deceleration
+  of the whole rocket against a whole-vehicle limit, the quantity the 1-DOF design model bounds
+  (section II.B), and the cable stress is a restraint load like a belt's. J211's higher classes are
+  for other uses: CFC 180 for accelerations to be integrated to velocity or displacement (nothing
+  here integrates a_max), CFC 600/1000 for components and an occupant's head.
 * The rocket's structural modes lie in CFC 60's pass band. The flexible rocket's linearised modes
   (free-free, hooks welded; 5 bodies, confirmed with 10) are 6.4 Hz (first bending), 17, 19, 24-25
   and 35-37 Hz; the modes above ~50 Hz differ between 5 and 10 bodies (discretisation, not

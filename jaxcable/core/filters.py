@@ -1,11 +1,14 @@
-r"""Channel-frequency-class (CFC) low-pass filters of SAE J211/1 and ISO 6487, in JAX.
+r"""Channel-frequency-class (CFC) low-pass filters of SAE J211/1 (ISO 6487's classes), in JAX.
 
 Crash and drop tests report accelerations and loads after a standard low-pass filter, named by its
-*channel frequency class* ``CFC`` [Hz]: CFC 60 (whole-vehicle accelerations used for velocity and
-displacement), CFC 180 (structural and occupant loads), CFC 600 and CFC 1000 (head and chest
-accelerations, short impacts). SAE J211/1 (rev. MAR95 onward), Appendix C, gives the filter as a
-second-order Butterworth low-pass applied once forward and once backward in time (zero phase, a
-4-pole response), whose 3 dB frequency ``F_H`` is ``5/3 CFC`` (100, 300, 1000, 1650 Hz).
+*channel frequency class* ``CFC`` [Hz]. J211's table of applications: CFC 60 for vehicle structural
+accelerations in total-vehicle comparison and as collision-simulation (sled) input, and for
+barrier-force and belt load cells; CFC 180 for structural accelerations to be integrated to velocity
+or displacement, and the occupant's spine; CFC 600 for component analysis; CFC 1000 for the dummy's
+head. SAE J211/1 (rev. MAR95 onward), Appendix C, gives the filter as a second-order Butterworth
+low-pass applied once forward and once backward in time (zero phase, a 4-pole response), whose 3 dB
+frequency ``F_H`` is ``5/3 CFC`` (100, 300, 1000, 1650 Hz). The coefficients here are J211's; ISO
+6487's printed formulas differ slightly.
 
 Derivation (re-derived here; J211's Appendix C prints the result)
 -----------------------------------------------------------------
