@@ -62,7 +62,7 @@ from jaxcable.arresting.design_setup import (
     design_scene,
 )
 from jaxcable.arresting.landing import LEVEL_DEFAULTS, LEVEL_STEP_CONTROL
-from jaxcable.arresting.passive import smooth_landing_outputs
+from jaxcable.arresting.passive import landing_outputs, smooth_landing_outputs
 from jaxcable.arresting.two_phase import TwoPhaseCaseFunction, event_occurred, two_phase_outputs
 from jaxcable.arresting.uncertainty import UNCERTAIN_PARAMETERS
 
@@ -109,10 +109,12 @@ def _one_case(problem: DesignProblem, scene, adjoint):
         pcoeff=pcoeff,
         icoeff=icoeff,
     )
-    smooth = smooth_landing_outputs(res.ts, res.probes, problem.widths)
-    hard = {k: res.outputs[k] for k in CRITERIA}
+    smooth = smooth_landing_outputs(res.ts, res.probes, problem.widths, problem.limits.filter_cfc_hz)
+    # the scene summarises with the default criteria; the problem's may filter at another class
+    outputs = landing_outputs(res.ts, res.probes, res.status, problem.limits)
+    hard = {k: outputs[k] for k in CRITERIA}
     # a case cut short (solver failure, or not stopped by t_end) does not land, whatever its maxima
-    completed = res.outputs["solve_ok"] & res.outputs["stopped"]
+    completed = outputs["solve_ok"] & outputs["stopped"]
     out = dict(smooth=smooth, hard=hard, completed=completed, status=res.status, num_steps=res.num_steps)
     m = getattr(scene.cables, "contact_tangent_pairs", None)
     if m is not None and "contact_pairs_touching" in res.probes:
@@ -150,7 +152,7 @@ def _one_two_phase_case(problem: DesignProblem, terminal, conditions, x, adjoint
     final = track.final_state
     x_true, _ = scene.rocket.head_and_bottom_world(final.rocket)
     error = jnp.linalg.norm(scene.frame_centre(final) - target_point(x_true[0], x_true[1]))
-    smooth = dict(smooth_landing_outputs(land.ts, land.probes, problem.widths))
+    smooth = dict(smooth_landing_outputs(land.ts, land.probes, problem.widths, problem.limits.filter_cfc_hz))
     smooth["capture_margin_m"] = out["smooth_capture_margin_m"]
     smooth["tracking_error_m"] = error
     hard = {k: out[k] for k in CRITERIA}

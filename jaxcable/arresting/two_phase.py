@@ -426,7 +426,7 @@ def _passive_phase(out1, passive, fidelity, t_end_s, criteria, solver_settings=N
         pcoeff=pcoeff, icoeff=icoeff,
     )  # fmt: skip
     hard = landing_outputs(land.ts, land.probes, land.status, criteria)
-    smooth = smooth_landing_outputs(land.ts, land.probes)
+    smooth = smooth_landing_outputs(land.ts, land.probes, cfc_hz=criteria.filter_cfc_hz)
     out = dict(
         **out1,
         **{k: v for k, v in hard.items() if k != "status"},
