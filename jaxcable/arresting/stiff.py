@@ -63,6 +63,12 @@ class CableLinearisation(eqx.Module):
     rows: Callable = eqx.field(static=True)
     active: tuple = eqx.field(static=True, default=())
     """Slots of the slow coordinates whose rates are prescribed (motor-driven pulleys)."""
+    hinge: tuple | None = None
+    """``(K_h, C_h)`` (4, 4) each: ``d phi_dd / d phi`` and ``d phi_dd / d phi_dot`` of the hooks'
+    hinge coordinates (the spring-dampers of eq 39 and the contact on the hooks, the rocket's
+    bodies held fixed), or None (hooks welded)."""
+    hinge_rows: Callable | None = eqx.field(static=True, default=None)
+    """``hinge_rows(state) -> (hinge angles (4,), hinge rates (4,))``."""
 
     def factor(self, beta):
         B = self.blocks
@@ -83,6 +89,20 @@ class CableLinearisation(eqx.Module):
         Y = jax.vmap(lambda col: banded.solve(F, col), in_axes=-1, out_axes=-1)(A_rz)  # A_rr^-1 A_rz
         S = A_zz - jnp.einsum("cnis,cnit->cst", A_zr, Y)
         return _CableFactors(F, Y, A_zr, _small_inverse(S), self, beta)
+
+
+def _rz(A, x):
+    """``(c, n, i, s) x (c, s) -> (c, n, i)``: a border's columns times slow values (multiply-sum)."""
+    return jnp.sum(A * x[:, None, None, :], axis=-1)
+
+
+def _zr(A, x):
+    """``(c, n, i, s) x (c, n, i) -> (c, s)``: the transpose (multiply-sum)."""
+    return jnp.sum(A * x[..., None], axis=(1, 2))
+
+
+def _zz(A, x):
+    return jnp.sum(A * x[:, None, :], axis=-1)
 
 
 def _small_inverse(S):
@@ -116,25 +136,33 @@ class _CableFactors(eqx.Module):
         bq_r, bq_s, bq_u, bv_r, bv_s, bv_u = self.lin.rows(rhs)
         bq_z, bv_z = _slow(bq_s, bq_u), _slow(bv_s, bv_u)
         g_r = (
-            beta * (_mass_matvec(B["M_rr"], bv_r) + jnp.einsum("cnis,cs->cni", B["M_rs"], bv_z))
+            beta * (_mass_matvec(B["M_rr"], bv_r) + _rz(B["M_rs"], bv_z))
             + banded.matvec(*B["K_rr"], bq_r)
-            + jnp.einsum("cnis,cs->cni", B["K_rz"], bq_z)
+            + _rz(B["K_rz"], bq_z)
         )
         g_z = (
-            beta * (jnp.einsum("cnis,cni->cs", B["M_rs"], bv_r) + jnp.einsum("cst,ct->cs", B["M_ss"], bv_z))
-            + jnp.einsum("cnis,cni->cs", B["K_rz"], bq_r)
-            + jnp.einsum("cst,ct->cs", B["K_zz"], bq_z)
+            beta * (_zr(B["M_rs"], bv_r) + _zz(B["M_ss"], bv_z))
+            + _zr(B["K_rz"], bq_r)
+            + _zz(B["K_zz"], bq_z)
         )
         active = list(self.lin.active)
         if active:
             g_z = g_z.at[..., active].set(beta * bv_z[..., active])
         w = banded.solve(self.F, g_r)
-        x_z = jnp.einsum("cst,ct->cs", self.S_inv, g_z - jnp.einsum("cnis,cni->cs", self.A_zr, w))
-        x_r = w - jnp.einsum("cnis,cs->cni", self.Y, x_z)
+        x_z = _zz(self.S_inv, g_z - _zr(self.A_zr, w))
+        x_r = w - _rz(self.Y, x_z)
         xq_r, xq_z = (bq_r + x_r) / beta, (bq_z + x_z) / beta
         out = jax.tree_util.tree_map(lambda b: b / beta, rhs)
         new = (xq_r, xq_z[..., :-1], xq_z[..., -1], x_r, x_z[..., :-1], x_z[..., -1])
-        return eqx.tree_at(self.lin.rows, out, new)
+        out = eqx.tree_at(self.lin.rows, out, new)
+        if self.lin.hinge is None:
+            return out
+        # the hooks' hinges: (beta^2 I - beta C_h - K_h) x_rate = beta b_rate + K_h b_angle
+        K_h, C_h = self.lin.hinge
+        b_a, b_w = self.lin.hinge_rows(rhs)
+        A_h = (beta**2) * jnp.eye(K_h.shape[0], dtype=K_h.dtype) - beta * C_h - K_h
+        x_w = _zz(_small_inverse(A_h[None]), (beta * b_w + K_h @ b_a)[None])[0]
+        return eqx.tree_at(self.lin.hinge_rows, out, ((b_a + x_w) / beta, x_w))
 
 
 def dense_reference(lin: CableLinearisation, state):
