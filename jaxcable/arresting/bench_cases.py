@@ -9,8 +9,10 @@ scene          quantities
 =============  =====================================================================================
 
 Registered at import (sizes chosen to compile and run in ~2 min on 2 cores): ``"1dof"`` (2 s),
-``"rigid"`` (1 s), ``"two_phase"`` (rigid passive phase, 1 s after capture) and ``"ale"`` (the ALE
-level's first 0.05 s).
+``"rigid"`` (1 s), ``"two_phase"`` (rigid passive phase, 1 s after capture), ``"ale"`` and
+``"full"`` (the levels' first 0.05 s) and ``"ale_stiff"`` (the ale level at cable damping beta =
+1e-2 s, first 0.05 s: ``jaxcable bench --cases ale_stiff --solvers rosw bosh3`` shows what the
+W-method buys).
 
 The ``two_phase`` runner integrates phase 1 with the requested solver too
 (:func:`~jaxcable.arresting.two_phase.two_phase_outputs` fixes phase 1 at Tsit5, rtol = 1e-6), so
@@ -32,7 +34,7 @@ from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.landing_rocket import rigid_landing_rocket
 from jaxcable.arresting.layout import ArrestingLayout
 from jaxcable.arresting.one_dof import OneDofParams, simulate_one_dof
-from jaxcable.arresting.passive import passive_landing_scene
+from jaxcable.arresting.passive import DEFAULT_CABLE_DAMPING_S, passive_landing_scene
 from jaxcable.arresting.two_phase import captured_state, event_occurred, interp, tracking_scene
 from jaxcable.core.simulate import make_solver, simulate
 from jaxcable.studies import registry
@@ -71,6 +73,8 @@ class PassiveBenchCase(AbstractBenchCase):
 
     n_span_elements: int = eqx.field(static=True, default=16)
     n_fine: int = eqx.field(static=True, default=8)
+    cable_damping_s: float = eqx.field(static=True, default=DEFAULT_CABLE_DAMPING_S)
+    """Cables' Rayleigh damping beta [s] (levels ``ale``/``full``)."""
 
     scene: ClassVar[str] = "passive"
     levels: ClassVar[tuple[str, ...]] = ("1dof", "rigid", "ale", "full")
@@ -79,13 +83,18 @@ class PassiveBenchCase(AbstractBenchCase):
     @property
     def label(self) -> str:
         if self.level in ("ale", "full"):
-            return f"{self.level} ({self.n_span_elements} el.)"
+            beta = "" if self.cable_damping_s == DEFAULT_CABLE_DAMPING_S else f", beta {self.cable_damping_s:g} s"
+            return f"{self.level} ({self.n_span_elements} el.{beta})"
         return self.level
 
     def runner(self) -> Callable:
         if self.level == "1dof":
             return self._one_dof_runner()
-        kw = dict(n_span_elements=self.n_span_elements, n_fine=self.n_fine) if self.level != "rigid" else {}
+        kw = (
+            dict(n_span_elements=self.n_span_elements, n_fine=self.n_fine, cable_damping_s=self.cable_damping_s)
+            if self.level != "rigid"
+            else {}
+        )
         scene = passive_landing_scene(self.level, t_end_s=self.t_end_s, **kw)
         return simulation_runner(scene, self.t_end_s, self.quantities)
 
@@ -161,3 +170,5 @@ registry.register_bench_case("1dof", PassiveBenchCase("1dof", t_end_s=2.0))
 registry.register_bench_case("rigid", PassiveBenchCase("rigid", t_end_s=1.0))
 registry.register_bench_case("two_phase", TwoPhaseBenchCase("rigid", t_end_s=1.0))
 registry.register_bench_case("ale", PassiveBenchCase("ale", t_end_s=0.05))
+registry.register_bench_case("full", PassiveBenchCase("full", t_end_s=0.05))
+registry.register_bench_case("ale_stiff", PassiveBenchCase("ale", t_end_s=0.05, cable_damping_s=1e-2))

@@ -34,7 +34,7 @@ from jaxcable.arresting.passive import (
     passive_landing_scene,
 )
 
-__all__ = ["LEVEL_DEFAULTS", "LEVEL_STEP_CONTROL", "REPORT_KEYS", "LandingRun", "report_landing", "run_landing", "unmet_conditions"]
+__all__ = ["LEVEL_DEFAULTS", "LEVEL_STEP_CONTROL", "STIFF_DAMPING_S", "STIFF_LEVEL_DEFAULTS", "level_solver_settings", "REPORT_KEYS", "LandingRun", "report_landing", "run_landing", "unmet_conditions"]
 
 LEVEL_DEFAULTS = {
     # level: (solver, rtol, atol, max_steps). Chosen from the work-precision study
@@ -55,6 +55,37 @@ LEVEL_DEFAULTS = {
     "ale": ("bosh3", 1e-4, 1e-4, 400_000),
     "full": ("bosh3", 1e-4, 1e-4, 400_000),
 }
+
+STIFF_DAMPING_S = 3e-4
+"""Cable damping beta [s] from which the ale and full levels run the W-method by default
+(``STIFF_LEVEL_DEFAULTS``). Explicit steps shrink with beta (stability: ``dt <= (2/omega)(sqrt(1 +
+zeta^2) - zeta)``, ``zeta = beta omega / 2``); the W-method treats the cables' elasticity and
+damping, the contact on the cable nodes and the hooks' hinges implicitly
+(:mod:`jaxcable.arresting.stiff`), so its steps are set by accuracy. Measured on the ale design
+case, first 0.2 s (``experiments/bench_stiff.py``, docs/stiff_integrator.md; 2-core CPU, float64):
+Bosh3 1e-4 against rosw 1e-5, beta 1e-4 s: 6.2 / 6.0 s; 1e-3 s: 11.6 / 4.7 s; 1e-2 s: 337 / 7.7 s.
+At the default beta = 1e-5 s Bosh3 stays faster (1.1 s against 2.5 s at rosw 1e-4): the W-method's
+steps are then held by the accuracy of the contact node's ringing, not by stability."""
+
+STIFF_LEVEL_DEFAULTS = {
+    # level: (solver, rtol, atol, max_steps) when cable_damping_s >= STIFF_DAMPING_S. rtol 1e-5:
+    # rosw at 1e-4 errs by 3-6e-3 in the criteria and 2e-3 in the energy budget, at 1e-5 by
+    # 1.4-7.6e-4 and 1.3-2e-4 (the reference: rosw at 1e-7; docs/stiff_integrator.md)
+    "ale": ("rosw", 1e-5, 1e-5, 400_000),
+    "full": ("rosw", 1e-5, 1e-5, 400_000),
+}
+
+
+def level_solver_settings(fidelity: str, cable_damping_s=None):
+    """``(solver, rtol, atol, max_steps)`` of a level: ``STIFF_LEVEL_DEFAULTS`` for the ale and
+    full levels with cable damping ``cable_damping_s >= STIFF_DAMPING_S`` [s], else
+    ``LEVEL_DEFAULTS`` (``None``: the scenes' default damping)."""
+    if fidelity in STIFF_LEVEL_DEFAULTS and cable_damping_s is not None:
+        beta = np.asarray(cable_damping_s)
+        if beta.size and float(np.min(beta)) >= STIFF_DAMPING_S:
+            return STIFF_LEVEL_DEFAULTS[fidelity]
+    return LEVEL_DEFAULTS[fidelity]
+
 
 LEVEL_STEP_CONTROL = {
     # level: (pcoeff, icoeff) of the PID step-size controller. ale/full run at the solver's stability
@@ -121,7 +152,7 @@ def run_landing(
         return _run_one_dof(capture, layout, buffer, t_end_s, criteria)
 
     scene = passive_landing_scene(fidelity, capture, layout, buffer, t_end_s=t_end_s, **scene_kwargs)
-    d_solver, d_rtol, d_atol, d_steps = LEVEL_DEFAULTS[fidelity]
+    d_solver, d_rtol, d_atol, d_steps = level_solver_settings(fidelity, scene_kwargs.get("cable_damping_s"))
     pcoeff, icoeff = LEVEL_STEP_CONTROL[fidelity]
     result = simulate(
         scene,

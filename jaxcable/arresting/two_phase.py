@@ -83,10 +83,10 @@ from jaxcable.core.scene import AbstractScene
 from jaxcable.core.simulate import simulate
 from jaxcable.core.validation import check_choice, check_positive
 from jaxcable.arresting.buffer import BufferDevice
-from jaxcable.arresting.cable_sets import throat_weights
+from jaxcable.arresting.cable_sets import AleCables, throat_weights
 from jaxcable.arresting.control import TrackingController
 from jaxcable.arresting.measurement import filtered_measurement, measurement_noise_track, target_point
-from jaxcable.arresting.landing import LEVEL_DEFAULTS, LEVEL_STEP_CONTROL, run_landing
+from jaxcable.arresting.landing import LEVEL_STEP_CONTROL, level_solver_settings, run_landing
 from jaxcable.arresting.landing_rocket import rigid_landing_rocket
 from jaxcable.arresting.layout import HOOK_OF_CABLE, ArrestingLayout, CaptureState
 from jaxcable.arresting.passive import (
@@ -419,7 +419,10 @@ def two_phase_outputs(
 def _passive_phase(out1, passive, fidelity, t_end_s, criteria, solver_settings=None, adjoint=None):
     """Phase 2 on its built scene ``passive`` with the level's solver and step control: its Result
     and phase 1's outputs ``out1`` joined with the passive outputs, the smooth maxima and ``landed``."""
-    solver, rtol, atol, steps = (solver_settings or {}).get(fidelity, LEVEL_DEFAULTS[fidelity])
+    damping = passive.cables.subsystems.cable.damping_s if isinstance(passive.cables, AleCables) else None
+    if damping is not None and isinstance(damping, jax.core.Tracer):
+        damping = None  # traced (design, vmapped): the level's explicit default
+    solver, rtol, atol, steps = (solver_settings or {}).get(fidelity, level_solver_settings(fidelity, damping))
     pcoeff, icoeff = LEVEL_STEP_CONTROL[fidelity]
     land = simulate(
         passive, t_end_s, solver=solver, rtol=rtol, atol=atol, max_steps=steps, adjoint=adjoint,

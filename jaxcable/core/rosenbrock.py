@@ -132,9 +132,11 @@ class RosenbrockW(diffrax.AbstractAdaptiveSolver):
     ``simulate(solver="rosw")`` fills it with the scene's ``stiff_linearisation``."""
 
     linearise: Callable | None = None
-    jacobian_every: int = eqx.field(static=True, default=1)
+    jacobian_every: int = eqx.field(static=True, default=4)
     """Recompute the linearisation every this many accepted steps (a W-method keeps its order with
-    a lagged ``J``; the factorisation is redone every step, as ``h`` changes). 1: every step."""
+    a lagged ``J``; the factorisation is redone every step, as ``h`` changes). 1: every step.
+    Default 4: on the ale design case at beta = 1e-2 s, 0.2 s (rtol 1e-4, 2-core CPU, float64)
+    1 -> 4.30 s (3053 steps), 4 -> 2.87 s (3348), 16 -> 2.83 s (4389 steps, 658 rejected)."""
     term_structure: ClassVar = diffrax.AbstractTerm
     interpolation_cls: ClassVar = diffrax.ThirdOrderHermitePolynomialInterpolation
 
