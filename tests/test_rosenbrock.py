@@ -93,6 +93,11 @@ def test_solver_by_name_and_bad_settings():
     assert SOLVERS["rosw"] is RosenbrockW
     with pytest.raises(ValueError, match="jacobian_every"):
         RosenbrockW(jacobian_every=0)
+    # a large scene without a structured linearisation is refused, not run with a dense Jacobian
+    from jaxcable import line_throwing_scene, simulate
+
+    with pytest.raises(ValueError, match="stiff_linearisation"):
+        simulate(line_throwing_scene(), 1.0, solver="rosw")
 
 
 def _random_blocks(rng, batch, n):

@@ -276,6 +276,24 @@ def _solve(scene, t1, save_ts, snapshot_ts, solver, controller, adjoint, max_ste
 _solve_jit = eqx.filter_jit(_solve)
 
 
+DENSE_JACOBIAN_MAX_STATE = 200
+"""Largest state (numbers) that ``solver="rosw"`` integrates with a dense Jacobian when the scene
+gives no ``stiff_linearisation``: the dense one costs a JVP per state number and an O(n^3) LU per
+step."""
+
+
+def _check_linearisation(scene, solver):
+    if not isinstance(solver, RosenbrockW) or solver.linearise is not None or hasattr(scene, "stiff_linearisation"):
+        return
+    n = _size(jax.eval_shape(scene.initial_state))
+    if n > DENSE_JACOBIAN_MAX_STATE:
+        raise ValueError(
+            f"solver 'rosw' needs the scene's structured linearisation (stiff_linearisation), which "
+            f"{type(scene).__name__} does not have; a dense Jacobian of its {n}-number state would cost {n} "
+            f"JVPs and an LU per step (limit {DENSE_JACOBIAN_MAX_STATE}); choose an explicit solver (e.g. 'tsit5')"
+        )
+
+
 def simulate(
     scene,
     t1: float = 30.0,
@@ -331,6 +349,7 @@ def simulate(
     if snapshot_ts is not None:
         _check_times("snapshot_ts", snapshot_ts, t1)
     solver_ = make_solver(solver)
+    _check_linearisation(scene, solver_)
     controller = diffrax.PIDController(rtol=rtol, atol=atol, pcoeff=pcoeff, icoeff=icoeff)
     jumps = scene.jump_times()
     if jumps is not None:
