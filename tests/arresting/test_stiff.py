@@ -190,3 +190,21 @@ def test_vmap_equals_single_runs(stiff_runs):
     batched = np.asarray(jax.vmap(z_max)(betas))
     single = np.array([float(z_max(b)) for b in betas])
     np.testing.assert_allclose(batched, single, rtol=1e-9)
+
+
+def test_level_solver_settings_follow_the_measured_crossover():
+    from jaxcable.arresting.landing import (
+        LEVEL_DEFAULTS,
+        STIFF_DAMPING_S,
+        STIFF_LEVEL_DEFAULTS,
+        level_solver_settings,
+    )
+    from jaxcable.studies import registry
+
+    assert level_solver_settings("ale") == LEVEL_DEFAULTS["ale"]
+    assert level_solver_settings("ale", 1e-5) == LEVEL_DEFAULTS["ale"]
+    assert level_solver_settings("full", STIFF_DAMPING_S) == STIFF_LEVEL_DEFAULTS["full"]
+    assert level_solver_settings("ale", 1e-2)[0] == "rosw"
+    assert level_solver_settings("rigid", 1e-2) == LEVEL_DEFAULTS["rigid"]  # no cable mass: no stiff nodes
+    for name in ("ale", "full", "ale_stiff"):
+        assert registry.bench_case(name).level in ("ale", "full")
