@@ -56,16 +56,17 @@ LEVEL_DEFAULTS = {
     "full": ("bosh3", 1e-4, 1e-4, 400_000),
 }
 
-STIFF_DAMPING_S = 3e-4
+STIFF_DAMPING_S = 5e-4
 """Cable damping beta [s] from which the ale and full levels run the W-method by default
 (``STIFF_LEVEL_DEFAULTS``). Explicit steps shrink with beta (stability: ``dt <= (2/omega)(sqrt(1 +
 zeta^2) - zeta)``, ``zeta = beta omega / 2``); the W-method treats the cables' elasticity and
 damping, the contact on the cable nodes and the hooks' hinges implicitly
 (:mod:`jaxcable.arresting.stiff`), so its steps are set by accuracy. Measured on the ale design
-case, first 0.2 s (``experiments/bench_stiff.py``, docs/stiff_integrator.md; 2-core CPU, float64):
-Bosh3 1e-4 against rosw 1e-5, beta 1e-4 s: 6.2 / 6.0 s; 1e-3 s: 11.6 / 4.7 s; 1e-2 s: 337 / 7.7 s.
-At the default beta = 1e-5 s Bosh3 stays faster (1.1 s against 2.5 s at rosw 1e-4): the W-method's
-steps are then held by the accuracy of the contact node's ringing, not by stability."""
+case, first 0.2 s (``experiments/bench_stiff.py``, docs/stiff_integrator.md; 2-core AMD EPYC,
+JAX 0.10.2 CPU, float64), Bosh3 at 1e-4 against rosw at 1e-5 (steps): beta 1e-5 s 0.64 s (2053) /
+4.4 s (5663); 1e-4 s 1.03 s (3549) / 4.2 s (5554); 1e-3 s 11.6 s (40895) / 4.5 s (5838); 1e-2 s
+115 s (407278) / 5.3 s (6747). Bosh3's steps grow about linearly with beta, the W-method's stay
+near 6000 (held by the accuracy of the contact node's ringing), so they cross near 5e-4 s."""
 
 STIFF_LEVEL_DEFAULTS = {
     # level: (solver, rtol, atol, max_steps) when cable_damping_s >= STIFF_DAMPING_S. rtol 1e-5:
