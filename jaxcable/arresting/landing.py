@@ -56,17 +56,23 @@ LEVEL_DEFAULTS = {
     "full": ("bosh3", 1e-4, 1e-4, 400_000),
 }
 
-STIFF_DAMPING_S = 5e-4
-"""Cable damping beta [s] from which the ale and full levels run the W-method by default
+STIFF_DAMPING_S = {"ale": 5e-4, "full": 1e-3}
+"""Cable damping beta [s] per level from which the ale and full levels run the W-method by default
 (``STIFF_LEVEL_DEFAULTS``). Explicit steps shrink with beta (stability: ``dt <= (2/omega)(sqrt(1 +
 zeta^2) - zeta)``, ``zeta = beta omega / 2``); the W-method treats the cables' elasticity and
 damping, the contact on the cable nodes and the hooks' hinges implicitly
-(:mod:`jaxcable.arresting.stiff`), so its steps are set by accuracy. Measured on the ale design
-case, first 0.2 s (``experiments/bench_stiff.py``, docs/stiff_integrator.md; 2-core AMD EPYC,
-JAX 0.10.2 CPU, float64), Bosh3 at 1e-4 against rosw at 1e-5 (steps): beta 1e-5 s 0.64 s (2053) /
-4.4 s (5663); 1e-4 s 1.03 s (3549) / 4.2 s (5554); 1e-3 s 11.6 s (40895) / 4.5 s (5838); 1e-2 s
-115 s (407278) / 5.3 s (6747). Bosh3's steps grow about linearly with beta, the W-method's stay
-near 6000 (held by the accuracy of the contact node's ringing), so they cross near 5e-4 s."""
+(:mod:`jaxcable.arresting.stiff`), so its steps are set by accuracy. Measured on the design case,
+first 0.2 s (``experiments/bench_stiff.py``, docs/stiff_integrator.md; 2-core AMD EPYC, JAX 0.10.2
+CPU, float64), Bosh3 at 1e-4 against rosw at 1e-5 (steps):
+
+* ale: beta 1e-5 s 0.64 s (2053) / 4.4 s (5663); 1e-4 s 1.03 s (3549) / 4.2 s (5554); 1e-3 s
+  11.6 s (40895) / 4.5 s (5838); 1e-2 s 115 s (407278) / 5.3 s (6747);
+* full: beta 1e-5 s 0.94 s (2035) / 18.3 s (9958); 1e-3 s 16.5 s (40900) / 17.9 s (9916); 1e-2 s
+  see docs/stiff_integrator.md.
+
+Bosh3's steps grow about linearly with beta, the W-method's stay near 6000 (ale) and 10000 (full),
+held by the accuracy of the contact node's ringing, so they cross near 5e-4 s (ale) and 1e-3 s
+(full)."""
 
 STIFF_LEVEL_DEFAULTS = {
     # level: (solver, rtol, atol, max_steps) when cable_damping_s >= STIFF_DAMPING_S. rtol 1e-5:
@@ -79,11 +85,11 @@ STIFF_LEVEL_DEFAULTS = {
 
 def level_solver_settings(fidelity: str, cable_damping_s=None):
     """``(solver, rtol, atol, max_steps)`` of a level: ``STIFF_LEVEL_DEFAULTS`` for the ale and
-    full levels with cable damping ``cable_damping_s >= STIFF_DAMPING_S`` [s], else
+    full levels with cable damping ``cable_damping_s >= STIFF_DAMPING_S[level]`` [s], else
     ``LEVEL_DEFAULTS`` (``None``: the scenes' default damping)."""
     if fidelity in STIFF_LEVEL_DEFAULTS and cable_damping_s is not None:
         beta = np.asarray(cable_damping_s)
-        if beta.size and float(np.min(beta)) >= STIFF_DAMPING_S:
+        if beta.size and float(np.min(beta)) >= STIFF_DAMPING_S[fidelity]:
             return STIFF_LEVEL_DEFAULTS[fidelity]
     return LEVEL_DEFAULTS[fidelity]
 

@@ -203,7 +203,8 @@ def test_level_solver_settings_follow_the_measured_crossover():
 
     assert level_solver_settings("ale") == LEVEL_DEFAULTS["ale"]
     assert level_solver_settings("ale", 1e-5) == LEVEL_DEFAULTS["ale"]
-    assert level_solver_settings("full", STIFF_DAMPING_S) == STIFF_LEVEL_DEFAULTS["full"]
+    assert level_solver_settings("full", STIFF_DAMPING_S["full"]) == STIFF_LEVEL_DEFAULTS["full"]
+    assert level_solver_settings("full", STIFF_DAMPING_S["ale"]) == LEVEL_DEFAULTS["full"]
     assert level_solver_settings("ale", 1e-2)[0] == "rosw"
     assert level_solver_settings("rigid", 1e-2) == LEVEL_DEFAULTS["rigid"]  # no cable mass: no stiff nodes
     for name in ("ale", "full", "ale_stiff"):
