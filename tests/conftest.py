@@ -62,6 +62,7 @@ MAPPINGS_WARNING = 45_000
 LONGEST_FIRST = (
     # CPU seconds of each file run alone (-n 0; Intel Xeon 2.5 GHz), longest first
     "tests/test_throw_scene.py",
+    "tests/arresting/test_stiff.py",
     "tests/arresting/test_two_phase.py",
     "tests/test_notebooks.py",
     "tests/arresting/test_passive.py",
