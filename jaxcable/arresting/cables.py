@@ -545,6 +545,20 @@ class CableSubsystem(eqx.Module):
         """The mass matrix's rows of the slow coordinates (pulley ``s``, block ``u``): ``(M_rs
         (n_int, 3, n_slow), M_ss (n_slow, n_slow))`` [kg] (the same closed form as
         :meth:`accelerations`, which never forms them this way)."""
+        *_, G1, G2, H1, H2 = self._slow_velocity_jacobians(kin)
+        M_ss = jnp.einsum("eis,eit->st", G1, H1) + jnp.einsum("eis,eit->st", G2, H2)
+        n_slow = M_ss.shape[0]
+        b = self.buffer
+        M_ss = M_ss.at[n_slow - 1, n_slow - 1].add(b.counterweight_mass_kg * b.transfer_rate**2)
+        zero = jnp.zeros((1,) + H1.shape[1:], H1.dtype)
+        M_rs = self.route.internal_rows(jnp.concatenate([H1, zero]) + jnp.concatenate([zero, H2]))
+        return M_rs, M_ss
+
+    def _slow_velocity_jacobians(self, kin: "CableKinematics"):
+        """The slow coordinates' (pulley ``s``, block ``u``) Jacobians of the material velocity at
+        each element end and their mass-weighted forms: ``(S (N, n_p) d s_node / d s_pulley, t (n_el,
+        3) tangents, U (N, 3) d r_node / d u, c (n_el,) rhoA L / 6, G1, G2 (n_el, 3, n_slow) at the
+        first and second ends, H1 = c (2 G1 + G2), H2 = c (G1 + 2 G2))``."""
         route = self.route
         _, _, _, moving = route._interpolation_tables()
         pulleys = np.array(route.pulley_ids, dtype=int)
@@ -556,13 +570,7 @@ class CableSubsystem(eqx.Module):
         c = (self.cable.rhoA_kg_per_m / 6.0) * kin.length
         H1 = c[:, None, None] * (2.0 * G1 + G2)
         H2 = c[:, None, None] * (G1 + 2.0 * G2)
-        M_ss = jnp.einsum("eis,eit->st", G1, H1) + jnp.einsum("eis,eit->st", G2, H2)
-        n_slow = M_ss.shape[0]
-        b = self.buffer
-        M_ss = M_ss.at[n_slow - 1, n_slow - 1].add(b.counterweight_mass_kg * b.transfer_rate**2)
-        zero = jnp.zeros((1,) + H1.shape[1:], H1.dtype)
-        M_rs = route.internal_rows(jnp.concatenate([H1, zero]) + jnp.concatenate([zero, H2]))
-        return M_rs, M_ss
+        return S, t, U, c, G1, G2, H1, H2
 
     def internal_mass_blocks(self, kin: "CableKinematics"):
         """Scalar consistent-mass tridiagonal of the internal nodes (their block is this (x) I3):
@@ -615,26 +623,14 @@ class CableSubsystem(eqx.Module):
         """
         route = self.route
         kin = self.kinematics(q, qdot) if kin is None else kin
-        F_r, F_s = self.nodal_forces(kin, element_forces)
-        Q_r, Q_s, Q_u = self._generalised(kin, F_r, F_s)
-        b = self.buffer
-        g = -self.gravity[2]
-        Q_u = Q_u - b.counterweight_mass_kg * g * b.transfer_rate + b.generalized_force(qdot.u, q.u)
+        Q_r, Q_slow = self.generalised_forces(q, qdot, kin, element_forces)
         if external is not None:
-            Q_r, Q_s, Q_u = Q_r + external.r, Q_s + external.s, Q_u + external.u
-        # slow Jacobians of the material velocity at each element end: (n_el, 2 ends, 3, n_slow)
+            Q_r = Q_r + external.r
+            Q_slow = Q_slow + jnp.concatenate([external.s, external.u[None]])
+        b = self.buffer
         _, iidx, _, _ = route._index_tables()
-        _, _, _, moving = route._interpolation_tables()
         internal = np.nonzero(iidx >= 0)[0]
-        pulleys = np.array(route.pulley_ids, dtype=int)
-        S = kin.W[:, pulleys]  # (N, n_p) d s_node / d s_pulley
-        t = kin.tangent
-        U = moving[:, None] * route.block_direction[None, :]  # (N, 3) d r_node / d u
-        G1 = jnp.concatenate([-t[:, :, None] * S[:-1, None, :], U[:-1, :, None]], axis=2)
-        G2 = jnp.concatenate([-t[:, :, None] * S[1:, None, :], U[1:, :, None]], axis=2)
-        c = (self.cable.rhoA_kg_per_m / 6.0) * kin.length
-        H1 = c[:, None, None] * (2.0 * G1 + G2)
-        H2 = c[:, None, None] * (G1 + 2.0 * G2)
+        S, t, U, c, G1, G2, H1, H2 = self._slow_velocity_jacobians(kin)
         # The slow blocks (M_ss, the Schur complement, its right-hand side) sum over every element: one
         # dot each. As multiply-sums, XLA's CPU backend compiled them to library ("ynn") fusions that
         # took most of the ale vector field (47 + 16 us of ~76 us; with two tangents 160 + 50 + 40 us;
@@ -647,7 +643,6 @@ class CableSubsystem(eqx.Module):
         n_slow = G1T.shape[0]
         M_ss = jnp.concatenate([G1T, G2T], axis=1).reshape(n_slow, -1) @ jnp.concatenate([H1, H2]).reshape(-1, n_slow)
         M_ss = M_ss.at[n_slow - 1, n_slow - 1].add(b.counterweight_mass_kg * b.transfer_rate**2)
-        Q_slow = jnp.concatenate([Q_s, Q_u[None]])
         active = np.array(route.active_slots, dtype=int)
         if internal.size:
             zero = jnp.zeros((1,) + H1.shape[1:], H1.dtype)

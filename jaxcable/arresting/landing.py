@@ -13,6 +13,7 @@ import dataclasses
 
 import diffrax
 import equinox as eqx
+import jax
 import numpy as np
 
 from jaxcable.core.config import enable_x64
@@ -34,7 +35,7 @@ from jaxcable.arresting.passive import (
     passive_landing_scene,
 )
 
-__all__ = ["LEVEL_DEFAULTS", "LEVEL_STEP_CONTROL", "STIFF_DAMPING_S", "STIFF_LEVEL_DEFAULTS", "level_solver_settings", "REPORT_KEYS", "LandingRun", "report_landing", "run_landing", "unmet_conditions"]
+__all__ = ["LEVEL_DEFAULTS", "LEVEL_STEP_CONTROL", "STIFF_DAMPING_S", "STIFF_LEVEL_DEFAULTS", "level_solver_settings", "CRITERIA_KEYS", "REPORT_KEYS", "LandingRun", "report_landing", "run_landing", "unmet_conditions"]
 
 LEVEL_DEFAULTS = {
     # level: (solver, rtol, atol, max_steps). Chosen from the work-precision study
@@ -86,7 +87,9 @@ STIFF_LEVEL_DEFAULTS = {
 def level_solver_settings(fidelity: str, cable_damping_s=None):
     """``(solver, rtol, atol, max_steps)`` of a level: ``STIFF_LEVEL_DEFAULTS`` for the ale and
     full levels with cable damping ``cable_damping_s >= STIFF_DAMPING_S[level]`` [s], else
-    ``LEVEL_DEFAULTS`` (``None``: the scenes' default damping)."""
+    ``LEVEL_DEFAULTS`` (``None`` or traced: the scenes' default damping)."""
+    if isinstance(cable_damping_s, jax.core.Tracer):
+        cable_damping_s = None  # traced (a design, a vmapped batch): the level's explicit default
     if fidelity in STIFF_LEVEL_DEFAULTS and cable_damping_s is not None:
         beta = np.asarray(cable_damping_s)
         if beta.size and float(np.min(beta)) >= STIFF_DAMPING_S[fidelity]:
@@ -311,7 +314,7 @@ def report_landing(run: LandingRun) -> dict:
     return out
 
 
-REPORT_KEYS = (
+CRITERIA_KEYS = (
     "z_max_m",
     "a_max_g",
     "sigma_max_mpa",
@@ -325,9 +328,10 @@ REPORT_KEYS = (
     "a_ok",
     "sigma_ok",
     "energy_budget_error",
-    "solver_status",
-    "num_steps",
 )
+"""The passive phase's outputs in every landing report (``jaxcable land``, one and two phases)."""
+
+REPORT_KEYS = (*CRITERIA_KEYS, "solver_status", "num_steps")
 """The keys of :func:`report_landing` taken from a run's outputs (``jaxcable land --json``)."""
 
 

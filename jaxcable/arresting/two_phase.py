@@ -420,8 +420,6 @@ def _passive_phase(out1, passive, fidelity, t_end_s, criteria, solver_settings=N
     """Phase 2 on its built scene ``passive`` with the level's solver and step control: its Result
     and phase 1's outputs ``out1`` joined with the passive outputs, the smooth maxima and ``landed``."""
     damping = passive.cables.subsystems.cable.damping_s if isinstance(passive.cables, AleCables) else None
-    if damping is not None and isinstance(damping, jax.core.Tracer):
-        damping = None  # traced (design, vmapped): the level's explicit default
     solver, rtol, atol, steps = (solver_settings or {}).get(fidelity, level_solver_settings(fidelity, damping))
     pcoeff, icoeff = LEVEL_STEP_CONTROL[fidelity]
     land = simulate(

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from jaxcable.arresting.landing import unmet_conditions
+from jaxcable.arresting.landing import CRITERIA_KEYS, unmet_conditions
 from jaxcable.arresting.passive import G_CRITERIA
 from jaxcable.core.simulate import status_message
 
@@ -35,19 +35,7 @@ def report_two_phase(run) -> dict:
             "captured_state",
             "frame_centre_at_capture_m",
             "tracking_ok",
-            "z_max_m",
-            "a_max_g",
-            "sigma_max_mpa",
-            "a_max_raw_g",
-            "sigma_max_raw_mpa",
-            "stop_time_s",
-            "criteria_met",
-            "solve_ok",
-            "stopped",
-            "z_ok",
-            "a_ok",
-            "sigma_ok",
-            "energy_budget_error",
+            *CRITERIA_KEYS,
         )
     }
     for k, v in list(out.items()):
