@@ -76,6 +76,7 @@ LONGEST_FIRST = (
     "tests/test_contact_tangent.py",
     "tests/test_segments.py",
     "tests/arresting/test_control.py",
+    "tests/arresting/test_stiff_limits.py",
 )
 """Test files that run first, in this order; every other file follows in collection order."""
 
