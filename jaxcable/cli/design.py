@@ -19,7 +19,7 @@ import numpy as np
 # importing the two design modules registers their problems ("arresting", "throw")
 from jaxcable.arresting.design import PHASES, TAIL_CRITERIA, ObjectiveWeights, criterion_limit
 from jaxcable.arresting.passive import DEFAULT_CABLE_DAMPING_S
-from jaxcable.cli.report import Report, emit
+from jaxcable.cli.report import Report, cable_damping, emit
 from jaxcable.core.config import enable_x64
 from jaxcable.core.validation import check_choice
 from jaxcable.studies import registry
@@ -49,8 +49,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("--lr", type=float, default=0.1, help="adam learning rate in the unconstrained variables (default 0.1)")
     p.add_argument("--t-end", type=float, default=1.2, help="time simulated after capture [s] (default 1.2)")
     p.add_argument(
-        "--cable-damping", type=float, default=DEFAULT_CABLE_DAMPING_S,
-        help=f"cable stiffness-proportional damping beta [s] (default {DEFAULT_CABLE_DAMPING_S:g}; the paper gives none, a_max depends on it)",
+        "--cable-damping", type=cable_damping(), default=DEFAULT_CABLE_DAMPING_S,
+        help=f"cable stiffness-proportional damping beta [s] (default {DEFAULT_CABLE_DAMPING_S:g}; the paper gives none, a_max depends on it; 'calibrated': 6.3e-3 s, fitted to section III.F, docs/arresting_validation.md)",
     )  # fmt: skip
     p.add_argument("--margin", type=float, default=0.0, help="fractional margin the penalties demand below each limit (default 0; 0.02: criteria < 98%% of their limits)")
     p.add_argument("--tail-criterion", choices=list(TAIL_CRITERIA), default="a_max", help="criterion whose CVaR is the tail risk (default a_max; worst: each case's largest normalised criterion, for designs that must meet every criterion)")

@@ -48,6 +48,27 @@ def positive(flag: str):
     return parse
 
 
+def cable_damping(flag: str = "--cable-damping"):
+    """Argument type: the cables' Rayleigh beta [s], a float >= 0 or ``calibrated`` (the value fitted to
+    the paper's section III.F, :data:`jaxcable.arresting.calibration.CALIBRATED_CABLE_DAMPING_S`);
+    refused naming ``flag`` (exit status 2)."""
+
+    def parse(text: str) -> float:
+        if text.strip().lower() == "calibrated":
+            from jaxcable.arresting.calibration import CALIBRATED_CABLE_DAMPING_S
+
+            return CALIBRATED_CABLE_DAMPING_S
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{flag} must be a number [s] or 'calibrated', got {text!r}") from None
+        if not value >= 0:
+            raise argparse.ArgumentTypeError(f"{flag} must be >= 0 [s] or 'calibrated', got {text}")
+        return value
+
+    return parse
+
+
 def in_open_interval(flag: str, lower: float, upper: float, unit: str = ""):
     """Argument type: a float in ``(lower, upper)``, refused naming ``flag`` (exit status 2)."""
 

@@ -1,0 +1,168 @@
+"""Convergence of the landing criteria: z_max, a_max, sigma_max against mesh, contact, tolerance, saves.
+
+Two cases at the ``ale`` and ``full`` levels, at the calibrated cable damping
+(``jaxcable.arresting.calibration``, ``--beta``):
+
+* ``design``: Table 1's design case (central vertical capture at 20 m/s), 1 s;
+* ``iva``: section IV.A's deviated case, scenario I: the tracking phase (rigid rocket, seed 0) to
+  capture, then the passive phase from the captured state, ``--iva-t-end`` s.
+
+Variants, each against the level's default (16 span elements, 8 of them fine, the contact law of
+``passive.scene_contact_law``, the level's solver settings, 1 ms saves):
+
+==============  ==============================================================================
+``mesh_x2``     every span element halved (32 span elements, 16 fine)
+``fine_x2``     the fine elements halved (24 span elements, 16 fine; the coarse ones unchanged)
+``contact_x2``  hook-cable contact stiffness k x 2 (the Hunt-Crossley factor c unchanged, so the
+                restitution of an impact is unchanged)
+``contact_half`` k / 2
+``rtol_10``     rtol = atol / 10
+``save_4``      save spacing / 4 (0.25 ms; the criteria's CFC 60 filter runs on the saves)
+==============  ==============================================================================
+
+Goals: z_max within 1%, the criteria a_max and sigma_max (CFC 60) within 3% of the default.
+Writes ``convergence_landing.{json,md}`` after every run (a killed run resumes: rows already in the
+JSON are kept). Usage::
+
+    python experiments/convergence_landing.py --levels ale               # ~25 min on 2 cores
+    python experiments/convergence_landing.py --levels full --cases design
+    python experiments/convergence_landing.py --quick                    # ale, design, 0.1 s, 2 variants
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import _report
+import equinox as eqx
+import numpy as np
+
+from jaxcable.core.config import enable_x64
+from jaxcable.arresting import calibration as C
+from jaxcable.arresting.landing import level_solver_settings, run_landing
+from jaxcable.arresting.passive import SAVE_SPACING_S, scene_contact_law
+
+STEM = "convergence_landing"
+KEYS = ("z_max_m", "a_max_g", "sigma_max_mpa")
+GOALS = {"z_max_m": 0.01, "a_max_g": 0.03, "sigma_max_mpa": 0.03}
+VARIANTS = ("default", "mesh_x2", "fine_x2", "contact_x2", "contact_half", "rtol_10", "save_4")
+
+
+def variant_kwargs(name, level, beta):
+    law = scene_contact_law()
+    solver, rtol, _, steps = level_solver_settings(level, beta)
+    return {
+        "default": {},
+        "mesh_x2": dict(n_span_elements=32, n_fine=16),
+        "fine_x2": dict(n_span_elements=24, n_fine=16),
+        "contact_x2": dict(contact=eqx.tree_at(lambda c: c.k, law, 2.0 * law.k)),
+        "contact_half": dict(contact=eqx.tree_at(lambda c: c.k, law, 0.5 * law.k)),
+        "rtol_10": dict(solver=solver, rtol=rtol / 10, atol=rtol / 10, max_steps=4 * steps),
+        "save_4": dict(save_spacing_s=SAVE_SPACING_S / 4),
+    }[name]
+
+
+def iva_passive_kwargs():
+    from jaxcable.arresting.two_phase import _passive_kwargs, _tracking_jit, deviated_case, tracking_scene
+
+    scene = tracking_scene(deviated_case(), scenario="I")
+    _, out = _tracking_jit(scene)
+    return _passive_kwargs(scene, out, True)
+
+
+def one_run(case, level, variant, beta, t_end, iva_kwargs):
+    kw = dict(cable_damping_s=beta, **variant_kwargs(variant, level, beta))
+    if case == "iva":
+        kw.update(iva_kwargs)
+    t0 = time.perf_counter()
+    run = run_landing(level, t_end_s=t_end, **kw)
+    wall = time.perf_counter() - t0
+    o = run.outputs
+    return dict(
+        case=case, level=level, variant=variant, beta_s=beta, t_end_s=t_end, wall_s=wall,
+        **{k: float(o[k]) for k in (*KEYS, "a_max_raw_g", "sigma_max_raw_mpa", "energy_budget_error")},
+        stopped=bool(o["stopped"]), solver_status=str(o["solver_status"]), num_steps=int(o["num_steps"]),
+    )  # fmt: skip
+
+
+def deviations(rows):
+    """Relative deviation of each row's criteria from its (case, level) default row."""
+    base = {(r["case"], r["level"]): r for r in rows if r["variant"] == "default"}
+    out = []
+    for r in rows:
+        b = base.get((r["case"], r["level"]))
+        if b is None:
+            continue
+        out.append({**r, **{f"d_{k}": (r[k] - b[k]) / abs(b[k]) for k in KEYS}})
+    return out
+
+
+def write_md(data, path):
+    L = ["# Convergence of the landing criteria", "", *_report.header(data), ""]
+    L += [
+        f"Cable damping beta = {data['beta_s']:.4g} s (calibrated, `experiments/calibrate_damping.py`). "
+        "Deviation of each variant from the level's default; goals: z_max 1%, a_max and sigma_max (CFC 60) 3%. "
+        "Raw (unfiltered) maxima beside. A cell marked * misses its goal.",
+        "",
+        "| case | level | variant | z_max [m] | dz | a_max [g] | da | sigma_max [MPa] | ds | a raw [g] | sigma raw [MPa] | stopped | steps | time [s] |",
+        "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|",
+    ]
+    for r in deviations(data["rows"]):
+        def d(k):
+            v = r[f"d_{k}"]
+            return f"{100 * v:+.2f}%" + ("*" if abs(v) > GOALS[k] else "")
+
+        L.append(
+            f"| {r['case']} | {r['level']} | {r['variant']} | {r['z_max_m']:.3f} | {d('z_max_m')} | {r['a_max_g']:.3f} | "
+            f"{d('a_max_g')} | {r['sigma_max_mpa']:.1f} | {d('sigma_max_mpa')} | {r['a_max_raw_g']:.2f} | "
+            f"{r['sigma_max_raw_mpa']:.0f} | {r['stopped']} | {r['num_steps']} | {r['wall_s']:.0f} |"
+        )  # fmt: skip
+    _report.write_lines(path, L)
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--levels", nargs="*", default=["ale"], choices=["ale", "full"])
+    p.add_argument("--cases", nargs="*", default=["design", "iva"], choices=["design", "iva"])
+    p.add_argument("--variants", nargs="*", default=list(VARIANTS), choices=VARIANTS)
+    p.add_argument("--beta", type=float, default=None, help="cable damping [s] (default: the calibrated value)")
+    p.add_argument("--design-t-end", type=float, default=1.0)
+    p.add_argument("--iva-t-end", type=float, default=1.2)
+    p.add_argument("--quick", action="store_true")
+    p.add_argument("--out", help="report folder (default experiments/results)")
+    args = p.parse_args()
+    enable_x64()
+    if args.quick:
+        args.levels, args.cases, args.variants = ["ale"], ["design"], ["default", "save_4"]
+        args.design_t_end = 0.1
+    beta = C.CALIBRATED_CABLE_DAMPING_S if args.beta is None else args.beta
+    out = _report.output_dir(args.out, args.quick)
+    old = out / f"{STEM}.json"
+    rows = []
+    if old.exists():
+        prev = json.loads(old.read_text())
+        if prev.get("beta_s") == beta:
+            rows = prev.get("rows", [])
+    data = _report.start(precision=_report.precision())
+    data["beta_s"] = beta
+    data["rows"] = rows
+    done = {(r["case"], r["level"], r["variant"]) for r in rows}
+    iva_kwargs = iva_passive_kwargs() if "iva" in args.cases else {}
+    for case in args.cases:
+        t_end = args.design_t_end if case == "design" else args.iva_t_end
+        for level in args.levels:
+            for variant in args.variants:
+                if (case, level, variant) in done:
+                    continue
+                row = one_run(case, level, variant, beta, t_end, iva_kwargs)
+                rows.append(row)
+                print(json.dumps({k: row[k] for k in ("case", "level", "variant", *KEYS, "stopped", "num_steps", "wall_s")}), flush=True)
+                _report.save(data, out, STEM)
+                write_md(data, out / f"{STEM}.md")
+    _report.finish(data, out, STEM, write_md)
+
+
+if __name__ == "__main__":
+    main()
