@@ -16,6 +16,8 @@ Variants, each against the level's default (16 span elements, 8 of them fine, th
 ``contact_x2``  hook-cable contact stiffness k x 2 (the Hunt-Crossley factor c unchanged, so the
                 restitution of an impact is unchanged)
 ``contact_half`` k / 2
+``contact_c_x2`` the contact's Hunt-Crossley damping factor c x 2 (restitution at 5 m/s 0.59 -> 0.41)
+``contact_c_half`` c / 2 (restitution at 5 m/s 0.59 -> 0.75)
 ``rtol_10``     rtol = atol / 10
 ``save_4``      save spacing / 4 (0.25 ms; the criteria's CFC 60 filter runs on the saves)
 ==============  ==============================================================================
@@ -47,7 +49,7 @@ from jaxcable.arresting.passive import SAVE_SPACING_S, scene_contact_law
 STEM = "convergence_landing"
 KEYS = ("z_max_m", "a_max_g", "sigma_max_mpa")
 GOALS = {"z_max_m": 0.01, "a_max_g": 0.03, "sigma_max_mpa": 0.03}
-VARIANTS = ("default", "mesh_x2", "fine_x2", "contact_x2", "contact_half", "rtol_10", "save_4")
+VARIANTS = ("default", "mesh_x2", "fine_x2", "contact_x2", "contact_half", "contact_c_x2", "contact_c_half", "rtol_10", "save_4")
 
 
 def variant_kwargs(name, level, beta):
@@ -59,6 +61,8 @@ def variant_kwargs(name, level, beta):
         "fine_x2": dict(n_span_elements=24, n_fine=16),
         "contact_x2": dict(contact=eqx.tree_at(lambda c: c.k, law, 2.0 * law.k)),
         "contact_half": dict(contact=eqx.tree_at(lambda c: c.k, law, 0.5 * law.k)),
+        "contact_c_x2": dict(contact=eqx.tree_at(lambda c: c.c, law, 2.0 * law.c)),
+        "contact_c_half": dict(contact=eqx.tree_at(lambda c: c.c, law, 0.5 * law.c)),
         "rtol_10": dict(solver=solver, rtol=rtol / 10, atol=rtol / 10, max_steps=4 * steps),
         "save_4": dict(save_spacing_s=SAVE_SPACING_S / 4),
     }[name]
