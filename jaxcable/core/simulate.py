@@ -20,6 +20,7 @@ import diffrax
 import optimistix as optx
 from jaxtyping import Array, PyTree
 
+from jaxcable.core.explicit_rk import RK4, FastTsit5
 from jaxcable.core.rosenbrock import RosenbrockW
 from jaxcable.core.validation import check_bool, check_choice, check_int, check_positive, check_range, real
 
@@ -28,6 +29,8 @@ SOLVERS = {
     "heun": diffrax.Heun,
     "bosh3": diffrax.Bosh3,
     "tsit5": diffrax.Tsit5,
+    "fast_tsit5": FastTsit5,
+    "rk4": RK4,
     "dopri5": diffrax.Dopri5,
     "dopri8": diffrax.Dopri8,
     "kvaerno3": diffrax.Kvaerno3,
@@ -319,7 +322,8 @@ def simulate(
         t1: final time [s] if no event ends the run first.
         solver: a name in ``SOLVERS`` or a diffrax solver instance.
         rtol, atol: tolerances of the PID step-size controller (mixed, on the state).
-        dt0: initial step [s]; ``None`` lets diffrax choose.
+        dt0: initial step [s]; ``None`` lets diffrax choose. A solver without an error estimate
+            (``"euler"``, ``"rk4"``) steps at the constant ``dt0``, which it then needs.
         save_ts: times for the probe histories [s] (default: the scene's ``default_save_ts``).
         snapshot_ts: times for snapshots [s] (default: the scene's ``default_snapshot_ts``).
         adjoint: a diffrax adjoint (default ``RecursiveCheckpointAdjoint``: exact reverse-mode).
@@ -350,7 +354,12 @@ def simulate(
         _check_times("snapshot_ts", snapshot_ts, t1)
     solver_ = make_solver(solver)
     _check_linearisation(scene, solver_)
-    controller = diffrax.PIDController(rtol=rtol, atol=atol, pcoeff=pcoeff, icoeff=icoeff)
+    if isinstance(solver_, diffrax.AbstractAdaptiveSolver):
+        controller = diffrax.PIDController(rtol=rtol, atol=atol, pcoeff=pcoeff, icoeff=icoeff)
+    else:
+        if dt0 is None:
+            raise ValueError(f"solver {solver!r} has no error estimate: give its constant step dt0 [s]")
+        controller = diffrax.ConstantStepSize()
     jumps = scene.jump_times()
     if jumps is not None:
         controller = diffrax.ClipStepSizeController(controller, jump_ts=jumps)
