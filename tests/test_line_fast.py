@@ -16,7 +16,12 @@ import numpy as np
 import pytest
 
 import jaxcable
-from jaxcable.components.ale import AleCable, AleState, ale_cable_vector_field, cable_energy
+from jaxcable.components.ale import (
+    AleCable,
+    AleState,
+    ale_cable_vector_field,
+    cable_energy,
+)
 from jaxcable.components.lagrangian_line import (
     LagrangianLine,
     LineScene,
@@ -190,7 +195,7 @@ def test_tension_laws():
         line = LagrangianLine(switch=switch, slack_width=1e-3)
         x = jnp.linspace(-1e-2, 1e-2, 41)
         derivative, T = jax.jit(
-            lambda x: (jax.vmap(jax.grad(lambda e: _strain_energy_factor(line, e)))(x), tension_factor(line, x))
+            lambda x, line=line: (jax.vmap(jax.grad(lambda e: _strain_energy_factor(line, e)))(x), tension_factor(line, x))
         )(x)
         np.testing.assert_allclose(derivative, T, atol=1e-15)
         assert float(T[0]) == pytest.approx(0.0, abs=1e-9)  # -10 w: slack
@@ -248,7 +253,7 @@ def test_unrolled_solvers():
         diffrax.diffeqsolve(
             diffrax.ODETerm(vf), s, 0.0, 2.0, None, y0, saveat=diffrax.SaveAt(ts=ts),
             stepsize_controller=diffrax.PIDController(rtol=1e-8, atol=1e-8),
-        )  # fmt: skip
+        )
         for s in (diffrax.Tsit5(), FastTsit5())
     ]
     assert int(sols[0].stats["num_steps"]) == int(sols[1].stats["num_steps"])

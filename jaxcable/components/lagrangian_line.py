@@ -45,7 +45,11 @@ derivative of a strain energy, so the undamped line conserves energy:
 Stiffness and step size. With ``beta > 0`` the highest mesh modes are overdamped and their fast
 eigenvalue is ``~ -beta omega_max^2`` with ``omega_max^2 = 4 EA / (rhoA h^2)`` (lumped; three
 times that consistent); e.g. EA = 1e6 N, rhoA = 1 kg/m, h = 0.525 m, beta = 1e-3 s: 1.45e4 1/s
-(lumped), which bounds an explicit step to ~2e-4 s (RK4's real stability interval is 2.785).
+(lumped), 4.4e4 1/s (consistent), which bound an explicit step to ~1.9e-4 s and ~6.4e-5 s (RK4's
+real stability interval is 2.785; measured on the 20-segment pull of
+``experiments/peers/moordyn_line.py``: RK4 stable at 1.75e-4 s lumped, at 6e-5 s but not at 8e-5 s
+consistent). The step count of an explicit solver is then set by stability, not accuracy: on that
+case RK4 at 1.25e-4 s is already as accurate as MoorDyn's RK4 at 1e-4 s.
 :class:`jaxcable.core.explicit_rk.RK4` at a constant step below that bound and
 :class:`jaxcable.core.explicit_rk.FastTsit5` (adaptive) are the measured fast choices on a CPU.
 

@@ -9,7 +9,8 @@ made of many tiny kernels and costs far more than the vector field: on the 20-se
 lumped-mass vector field costs 0.7 us and a ``diffrax.Tsit5`` step 13.7 us (6 evaluations); with 64
 cases in one state, a Tsit5 step costs ~160 us on a trivial vector field. Here the stages are written
 out in Python at trace time (``a_ij`` as Python floats, zero entries skipped), so XLA fuses each
-stage's linear combination into the next evaluation of the vector field.
+stage's linear combination into the next evaluation of the vector field: on that line (1 s, rtol =
+atol = 1e-8, under load) :class:`FastTsit5` took diffrax.Tsit5's 5553 steps in 0.10 s against 0.15 s.
 
 What. :class:`UnrolledERK` takes any explicit :class:`diffrax.ButcherTableau` and an interpolation;
 it keeps ``f(t1, y1)`` in the solver state (the next step's first stage: first-same-as-last when the
@@ -35,7 +36,7 @@ import diffrax
 import jax
 import numpy as np
 
-__all__ = ["AdaptiveUnrolledERK", "FastTsit5", "RK4", "UnrolledERK"]
+__all__ = ["RK4", "AdaptiveUnrolledERK", "FastTsit5", "UnrolledERK"]
 
 
 def _combine(base, coeffs, trees, scale):
@@ -95,8 +96,10 @@ class UnrolledERK(diffrax.AbstractSolver):
         return y1, y_error, dense_info, f1, diffrax.RESULTS.successful
 
     def _dense_info(self, h, y0, y1, fs, f1):
-        scale = lambda f: jax.tree_util.tree_map(lambda x: h * x, f)  # noqa: E731
-        return dict(y0=y0, y1=y1, k0=scale(fs[0]), k1=scale(f1))
+        def scale(f):
+            return jax.tree_util.tree_map(lambda x: h * x, f)
+
+        return {"y0": y0, "y1": y1, "k0": scale(fs[0]), "k1": scale(f1)}
 
 
 class AdaptiveUnrolledERK(UnrolledERK, diffrax.AbstractAdaptiveSolver):
@@ -117,7 +120,7 @@ class FastTsit5(AdaptiveUnrolledERK):
 
     def _dense_info(self, h, y0, y1, fs, f1):
         k = jax.tree_util.tree_map(lambda *xs: h * jax.numpy.stack(xs), *fs)
-        return dict(y0=y0, y1=y1, k=k)
+        return {"y0": y0, "y1": y1, "k": k}
 
 
 _rk4_tableau = diffrax.ButcherTableau(
