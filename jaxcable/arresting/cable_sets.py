@@ -75,6 +75,45 @@ def throat_weights(hinge, tip, barb_end, clearance):
     return jnp.stack([alpha1, 1.0 - alpha1 - alpha2, alpha2])
 
 
+def _segment_distance(p0, p1, q0, q1):
+    """Closest points (NumPy) of segments p0-p1 and q0-q1: ``(gap vector q - p, distance)``."""
+    from jaxcable.components.contact import segment_segment_closest
+
+    _, _, gap = segment_segment_closest(*(jnp.asarray(x) for x in (p0, p1, q0, q1)))
+    gap = np.asarray(gap)
+    return gap, float(np.linalg.norm(gap))
+
+
+def contact_free_drape_point(pa, pb, c, hook, clearance, threshold=5e-4, iterations=50, tol=1e-7):
+    """The point C' [m] (3,) through which a cable draped straight ``pa``-C'-``pb`` touches the hook's
+    capsules (arm ``hook[0]``-``hook[1]``, barb ``hook[1]``-``hook[2]``, radius + cable radius =
+    ``clearance``) without entering them, starting from the throat ``c`` (NumPy, concrete inputs).
+
+    The throat touches the arm and the barb at the points nearest to it, so a cable through it that
+    crosses the hook square to the arm touches both; a cable at an angle (a rolled or tilted rocket:
+    section IV.A's deviated case has 25 deg roll and 5 deg tilt) passes closer than ``clearance`` to
+    the barb or the arm on one side of the throat, i.e. starts inside the hook (a Hertz force of
+    0.5-2 MN per hook at t = 0 there). Each iteration pushes C' out along the contact normal by the
+    deepest penetration of either leg into either capsule; the legs are long, so C' moves the
+    nearby cable with it, until the penetration is below ``tol`` [m]. Returns ``c`` unchanged when
+    the throat's drape enters the hook by at most ``threshold`` [m] (default 0.5 mm, the contact
+    law's onset width: a force below 10 kN; the design case's drape enters by 45 um, 0.1 kN)."""
+    c = np.asarray(c, float).copy()
+    caps = ((hook[0], hook[1]), (hook[1], hook[2]))
+    for it in range(iterations):
+        worst, push = 0.0, None
+        for h0, h1 in caps:
+            for q0, q1 in ((pa, c), (c, pb)):
+                gap, dist = _segment_distance(h0, h1, q0, q1)
+                depth = clearance - dist
+                if depth > worst and dist > 0.0:
+                    worst, push = depth, gap / dist
+        if push is None or worst <= (threshold if it == 0 else tol):
+            break
+        c = c + worst * push
+    return c
+
+
 def _engaged_throats(hooks: HookPoints, weights):
     """Throat positions/velocities of the hook engaged by each cable: (4, 3)."""
     w = weights[None, :, None]
@@ -260,7 +299,8 @@ class AleCables(eqx.Module):
         """Routes, initial drape and mesh of the four cables (concrete inputs: runs outside jit).
 
         The arresting span is draped straight from each slider pulley to the throat point of its
-        hook (the capture state), meshed with ``n_fine`` equal elements over +-``fine_half_width_m``
+        hook (the capture state), moved out of the hook where a cable at an angle would enter it
+        (:func:`contact_free_drape_point`), meshed with ``n_fine`` equal elements over +-``fine_half_width_m``
         around the throat and the rest coarse; towers get ``n_tower_elements``, block strands one.
         Material coordinates are set for a uniform pre-tension.
         """
@@ -275,8 +315,11 @@ class AleCables(eqx.Module):
             f = EA * 0.5 * (lam**2 - 1.0) * lam - T0
             lam -= f / (EA * (1.5 * lam**2 - 0.5))
         subs, q0s = [], []
+        clearance = float(hook_radius_m) + float(layout.cable_radius_m)
         for k in range(4):
             pa, pb, c = (np.asarray(x, float) for x in (ends[k, 0], ends[k, 1], throats[k]))
+            # the drape touches its hook without entering it (a rolled or tilted capture)
+            c = contact_free_drape_point(pa, pb, c, np.asarray(hooks0.positions[HOOK_OF_CABLE[k]], float), clearance)
             mid = 0.5 * (pa + pb)
             ground = np.array([mid[0], mid[1], -float(H)])
             block = ground - np.array([0.0, 0.0, float(D)])
