@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 import jaxcable.cli.sweep as sweep_module
+from jaxcable.arresting.landing_rocket import rigid_landing_rocket
 from jaxcable.arresting.layout import CaptureState
 from jaxcable.arresting.two_phase import SCENARIO_SETTINGS, run_two_phase
 from jaxcable.arresting.uncertainty import UNCERTAIN_PARAMETERS, halton_samples, scenario_ranges
@@ -125,10 +126,18 @@ def test_histories_agree_with_rows_and_descend_at_h_over_tc(cli_run):
     np.testing.assert_allclose(pos[:, 0, 0], samples["x_m"], atol=1e-9)
     np.testing.assert_allclose(pos[:, 0, 1], samples["y_m"], atol=1e-9)
     np.testing.assert_allclose(pos[:, 0, 2], h, atol=1e-9)
-    # ... and O descends at h / t_c (the guidance holds the descent; O moves with the CoM up to the
-    # slow rotation at rates below 0.1 deg/s over 6 s: millimetres)
+    # ... and O descends at h / t_c: the guidance holds the CoM's descent exactly, and O, l = 11.67 m
+    # above the CoM on the axis, departs from it by l |cos(tilt(t)) - cos(tilt(0))| as the free rocket
+    # turns (the paper's rocket descends freely; its rates grow with the wind). Bound per case by the
+    # larger of its initial and captured tilts plus 1 deg (the tilt changes monotonically under the
+    # steady wind's moment over a few seconds), and 5 mm as before for the integration; measured
+    # 1.6 cm at most, against 176 m of free fall in 6 s.
+    l = float(rigid_landing_rocket(hinged_hooks=False).reference_local_m[2])
+    tilt0 = np.hypot(samples["theta_x_deg"], samples["theta_y_deg"])
+    tilt1 = np.hypot(table[f"{CAPTURED_PREFIX}theta_x_deg"], table[f"{CAPTURED_PREFIX}theta_y_deg"])
+    tol = 5e-3 + l * (1.0 - np.cos(np.radians(np.maximum(tilt0, tilt1) + 1.0)))
     ok = np.isfinite(ts)
-    np.testing.assert_allclose(pos[..., 2][ok], (h - h / t_c * ts)[ok], atol=5e-3)
+    assert np.all(np.abs(pos[..., 2] - (h - h / t_c * ts))[ok] <= np.broadcast_to(tol[:, None], ts.shape)[ok])
     # the histories' batch reproduces the rows: the tracking error at t_c / 2, the capture, and the
     # maxima of the passive phase over the same saved grid (different batch programs: 1e-5 as above)
     err_half = [np.interp(0.5 * t_c, t[np.isfinite(t)], e[np.isfinite(t)]) for t, e in zip(ts, tr["tracking_error_m"])]

@@ -341,7 +341,11 @@ def test_wind_in_passive_phase_rigid_level_drifts_downwind_and_closes_budget():
         out[speed] = res
     assert float(out[0.0].probes["energy"]["aero_work"][-1]) < 0.0
     assert np.max(np.abs(out[0.0].probes["centre_xy_m"])) < 1e-6  # still air: stays central
-    assert float(out[20.0].probes["centre_xy_m"][-1, 0]) < -0.1
+    # 0.05 m (0.1 m before the calibration of the rocket's coefficients): with the calibrated C_n = 0
+    # (eq 44 as printed, jaxcable.arresting.tracking_calibration) the side force is eq 44's normal
+    # force alone, proportional to the descent speed, which falls to zero in this second; measured
+    # 0.072 m west (more than 0.1 m with the textbook cross-flow drag C_n = 0.8)
+    assert float(out[20.0].probes["centre_xy_m"][-1, 0]) < -0.05
     assert abs(float(out[20.0].probes["centre_xy_m"][-1, 1])) < abs(float(out[20.0].probes["centre_xy_m"][-1, 0]))
 
 
