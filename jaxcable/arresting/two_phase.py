@@ -691,9 +691,16 @@ class TwoPhaseCaseFunction(AbstractLandingCaseFunction):
         return dict(capture_time_s=o["capture_time_s"], captured_position_m=o["captured_state"].position, captured=o["captured"])
 
     def describe(self) -> dict:
+        # the tracking scene's calibrated defaults are part of the identity: rows computed before the
+        # calibration of the tracking phase (held attitude, b = 1 /s) must not be resumed as if current
+        aero = AeroCoefficients()
+        tracking = dict(motor_bandwidth_per_s=CALIBRATED_MOTOR_BANDWIDTH_PER_S, attitude_hold=False,
+                        rocket_normal_force_slope_per_rad=float(aero.rocket_normal_force_slope_per_rad),
+                        rocket_crossflow_drag_coefficient=float(aero.rocket_crossflow_drag_coefficient))
         return dict(type="TwoPhaseCaseFunction", scenario=self.scenario, fidelity=self.fidelity, seed=self.seed,
                     t_end_s=self.t_end_s, gain_per_s=float(self.gain_per_s),
                     m_w=float(self.buffer.counterweight_mass_kg), F_f=float(self.buffer.brake_force_N),
+                    tracking=tracking,
                     **({} if self.cable_damping_s == DEFAULT_CABLE_DAMPING_S else dict(cable_damping_s=self.cable_damping_s)))  # fmt: skip
 
 
