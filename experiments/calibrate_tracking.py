@@ -12,7 +12,7 @@ the two-phase QMC sweep of the defaults (``run_qmc_sweep``, rigid level, passive
 
 Writes experiments/results/calibrate_tracking.{json,md,png}.
 
-    python experiments/calibrate_tracking.py                       # ~40 min on 2 busy cores
+    python experiments/calibrate_tracking.py --sweep                # ~40 min on 2 busy cores
     python experiments/calibrate_tracking.py --n 2 --check-n 4 --adam-steps 2 --lbfgs-evaluations 2 --out /tmp/ct
 """
 
@@ -42,6 +42,7 @@ def parse_args(argv=None):
     p.add_argument("--learning-rate", type=float, default=0.3)
     p.add_argument("--prior-weight", type=float, default=0.02)
     p.add_argument("--sweep", action="store_true", help="also run the two-phase QMC sweep of the defaults (run_qmc_sweep)")
+    p.add_argument("--sweep-n", type=int, default=None, help="cases per scenario of that sweep (default: --check-n; the paper runs 100)")
     p.add_argument("--out", help="report folder (default experiments/results)")
     return p.parse_args(argv)
 
@@ -170,7 +171,7 @@ def main(argv=None):
         save(data, out, STEM)
 
     if args.sweep:
-        data["sweep"] = run_sweeps(args.check_n)
+        data["sweep"] = run_sweeps(args.sweep_n or args.check_n)
     finish(data, out, STEM, write_md)
     plot(data, out / f"{STEM}.png")
 
@@ -189,6 +190,7 @@ def run_sweeps(n):
             err = np.asarray(t["tracking_error_m"], float)
             v = np.maximum(np.abs(np.asarray(t["captured_vx_m_s"], float)), np.abs(np.asarray(t["captured_vy_m_s"], float)))
             res[s] = dict(n=n, captured=int(np.sum(np.asarray(t["captured"], bool))), error_half_tc_max_m=float(err.max()),
+                          margin_min_m=float(np.min(np.asarray(t["capture_margin_m"], float))),
                           lateral_speed_max_m_s=float(v.max()), stopped=int(np.sum(np.asarray(t["stopped"], bool))))  # fmt: skip
             print("sweep", s, res[s], flush=True)
     return res
@@ -261,9 +263,12 @@ def write_md(data, path):
             lines.append(f"| {s} | {k} | " + " | ".join(f"{row[n]:.3g}" for n in names) + " |")
     if data.get("sweep"):
         lines += ["", "## Two-phase QMC sweep of the defaults (run_qmc_sweep, rigid level)", ""]
-        lines += ["| scenario | cases | captured | error at t_c/2 max [m] | max abs v [m/s] | stopped |", "|---|---:|---:|---:|---:|---:|"]
+        lines += ["Halton cases of seed 0 (the first of them are the check's cases).", ""]
+        lines += ["| scenario | cases | captured | min margin [m] | error at t_c/2 max [m] | max abs v [m/s] | stopped |",
+                  "|---|---:|---:|---:|---:|---:|---:|"]  # fmt: skip
         for s, d in data["sweep"].items():
-            lines.append(f"| {s} | {d['n']} | {d['captured']} | {d['error_half_tc_max_m']:.2f} | {d['lateral_speed_max_m_s']:.2f} | {d['stopped']} |")
+            lines.append(f"| {s} | {d['n']} | {d['captured']} | {d.get('margin_min_m', float('nan')):.3f} | {d['error_half_tc_max_m']:.2f} | "
+                         f"{d['lateral_speed_max_m_s']:.2f} | {d['stopped']} |")  # fmt: skip
     write_lines(path, lines)
 
 
