@@ -96,7 +96,7 @@ from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.cable_sets import AleCables, HookPoints, MasslessCables, throat_weights
 from jaxcable.arresting.landing_rocket import flexible_landing_rocket, rigid_landing_rocket
 from jaxcable.arresting.layout import ArrestingLayout, CaptureState, check_hooks_inside_frame
-from jaxcable.arresting.stiff import CableLinearisation, ExplicitLinearisation
+from jaxcable.arresting.stiff import CableLinearisation, ExplicitLinearisation, HookCoupling
 from jaxcable.components.contact import ContactLaw
 from jaxcable.components.multibody import point_kinematics
 from jaxcable.components.wind import AeroCoefficients, WindField, rocket_aero_loads
@@ -253,6 +253,10 @@ def _hinge_rows(state):
     return state.rocket.hinge_angle, state.rocket.hinge_rate
 
 
+def _rocket_rows(state):
+    return state.rocket
+
+
 def _cable_rows(state):
     q, qdot = state.cables.q, state.cables.qdot
     return q.r, q.s, q.u, qdot.r, qdot.s, qdot.u
@@ -331,16 +335,20 @@ class PassiveLandingScene(AbstractScene):
             aero_work=aux["aero_power_W"],
         )
 
-    def stiff_linearisation(self, t, state):
+    def stiff_linearisation(self, t, state, hook_coupling: bool = True):
         """The stiff part of the Jacobian for ``simulate(solver="rosw")``
-        (:mod:`jaxcable.arresting.stiff`): the ALE cables' internal nodes; none for massless cables."""
+        (:mod:`jaxcable.arresting.stiff`): the ALE cables' internal nodes and border, the hooks'
+        hinges, and (``hook_coupling``) the cable rows' columns on the rocket's coordinates through
+        the hook-cable contact; none for massless cables."""
         if not isinstance(self.cables, AleCables):
             return ExplicitLinearisation()
         blocks = self.cables.stiff_blocks(state.cables, self.hooks(state.rocket), t)
         hinge = self._hinge_jacobian(t, state) if state.rocket.hinge_rate.shape[0] else None
+        coupling = HookCoupling(self.cables, self.rocket, state.cables, state.rocket, jnp.asarray(t)) if hook_coupling else None
         return CableLinearisation(
             blocks, rows=_cable_rows, active=self.cables.subsystems.route.active_slots, hinge=hinge,
-            hinge_rows=_hinge_rows if hinge is not None else None,
+            hinge_rows=_hinge_rows if hinge is not None else None, coupling=coupling,
+            rocket_rows=_rocket_rows if hook_coupling else None,
         )  # fmt: skip
 
     def _hinge_jacobian(self, t, state):

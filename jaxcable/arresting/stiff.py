@@ -28,7 +28,7 @@ from jax.flatten_util import ravel_pytree
 from jaxcable.core import banded
 from jaxcable.core.rosenbrock import DenseLinearisation
 
-__all__ = ["CableLinearisation", "ExplicitLinearisation", "dense_reference"]
+__all__ = ["CableLinearisation", "ExplicitLinearisation", "HookCoupling", "dense_reference"]
 
 
 def _mass_matvec(M, x):
@@ -69,6 +69,11 @@ class CableLinearisation(eqx.Module):
     bodies held fixed), or None (hooks welded)."""
     hinge_rows: Callable | None = eqx.field(static=True, default=None)
     """``hinge_rows(state) -> (hinge angles (4,), hinge rates (4,))``."""
+    coupling: "HookCoupling | None" = None
+    """The cable rows' columns on the rocket's coordinates (the contact forces move with the
+    hooks), applied as a JVP per solve; None: the hooks held fixed (the rocket's columns zero)."""
+    rocket_rows: Callable | None = eqx.field(static=True, default=None)
+    """``rocket_rows(state) -> the rocket's state`` (with ``coupling``)."""
 
     def factor(self, beta):
         B = self.blocks
@@ -133,6 +138,14 @@ class _CableFactors(eqx.Module):
 
     def solve(self, rhs):
         beta, B = self.beta, self.lin.blocks
+        out = jax.tree_util.tree_map(lambda b: b / beta, rhs)
+        if self.lin.hinge is not None:
+            # the hooks' hinges: (beta^2 I - beta C_h - K_h) x_rate = beta b_rate + K_h b_angle
+            K_h, C_h = self.lin.hinge
+            b_a, b_w = self.lin.hinge_rows(rhs)
+            A_h = (beta**2) * jnp.eye(K_h.shape[0], dtype=K_h.dtype) - beta * C_h - K_h
+            x_w = _zz(_small_inverse(A_h[None]), (beta * b_w + K_h @ b_a)[None])[0]
+            out = eqx.tree_at(self.lin.hinge_rows, out, ((b_a + x_w) / beta, x_w))
         bq_r, bq_s, bq_u, bv_r, bv_s, bv_u = self.lin.rows(rhs)
         bq_z, bv_z = _slow(bq_s, bq_u), _slow(bv_s, bv_u)
         g_r = (
@@ -145,6 +158,11 @@ class _CableFactors(eqx.Module):
             + _zr(B["K_rz"], bq_r)
             + _zz(B["K_zz"], bq_z)
         )
+        if self.lin.coupling is not None:
+            # the rocket's rows are solved first (J holds no cable columns there); their solution
+            # moves the hooks, whose contact forces enter the cable rows: + beta D x_rocket
+            d_r, d_z = self.lin.coupling.forces_jvp(self.lin.rocket_rows(out))
+            g_r, g_z = g_r + beta * d_r, g_z + beta * d_z
         active = list(self.lin.active)
         if active:
             g_z = g_z.at[..., active].set(beta * bv_z[..., active])
@@ -152,17 +170,33 @@ class _CableFactors(eqx.Module):
         x_z = _zz(self.S_inv, g_z - _zr(self.A_zr, w))
         x_r = w - _rz(self.Y, x_z)
         xq_r, xq_z = (bq_r + x_r) / beta, (bq_z + x_z) / beta
-        out = jax.tree_util.tree_map(lambda b: b / beta, rhs)
         new = (xq_r, xq_z[..., :-1], xq_z[..., -1], x_r, x_z[..., :-1], x_z[..., -1])
-        out = eqx.tree_at(self.lin.rows, out, new)
-        if self.lin.hinge is None:
-            return out
-        # the hooks' hinges: (beta^2 I - beta C_h - K_h) x_rate = beta b_rate + K_h b_angle
-        K_h, C_h = self.lin.hinge
-        b_a, b_w = self.lin.hinge_rows(rhs)
-        A_h = (beta**2) * jnp.eye(K_h.shape[0], dtype=K_h.dtype) - beta * C_h - K_h
-        x_w = _zz(_small_inverse(A_h[None]), (beta * b_w + K_h @ b_a)[None])[0]
-        return eqx.tree_at(self.lin.hinge_rows, out, ((b_a + x_w) / beta, x_w))
+        return eqx.tree_at(self.lin.rows, out, new)
+
+
+class HookCoupling(eqx.Module):
+    """The cables' generalised forces as functions of the rocket's state, through the hooks'
+    points (the hook-cable contact), linearised at one state: ``forces_jvp(x)`` is ``D x`` with
+    ``D = dQ / d(rocket state)`` of :meth:`jaxcable.arresting.cable_sets.AleCables.cable_forces`,
+    one JVP (only the contact terms carry a tangent). Without these columns the contact node under
+    a hook sees a fixed hook: the W-method's error estimate then resolves the node's motion
+    relative to the rocket, holding the step near 3e-5 s on the design case (with them, the same
+    error at 4x the step; ``docs/stiff_integrator.md``)."""
+
+    cables: eqx.Module
+    rocket: eqx.Module
+    cable_state: eqx.Module
+    rocket_state: eqx.Module
+    t: jax.Array
+
+    def forces(self, rocket_state):
+        from jaxcable.arresting.cable_sets import HookPoints
+
+        pos, vel = self.rocket.hook_points_world(rocket_state)
+        return self.cables.cable_forces(self.cable_state, HookPoints(positions=pos, velocities=vel), self.t)
+
+    def forces_jvp(self, x_rocket):
+        return jax.jvp(self.forces, (self.rocket_state,), (x_rocket,))[1]
 
 
 def dense_reference(lin: CableLinearisation, state):
@@ -175,6 +209,16 @@ def dense_reference(lin: CableLinearisation, state):
     q_r, q_s, q_u, v_r, v_s, v_u = index
     B = lin.blocks
     J = jnp.zeros((n, n), flat.dtype)
+    if lin.coupling is not None:
+        rocket = lin.rocket_rows(state)
+        r_flat, r_unravel = ravel_pytree(rocket)
+        i_rocket = ravel_pytree(lin.rocket_rows(unravel(jnp.arange(n, dtype=flat.dtype))))[0].astype(int)
+
+        def coupled(x):
+            d_r, d_z = lin.coupling.forces_jvp(r_unravel(x))
+            return jnp.concatenate([d_r.reshape(d_r.shape[0], -1), d_z], axis=-1)  # (cables, rows)
+
+        coupling_columns = jax.jacfwd(coupled)(jnp.zeros_like(r_flat))  # (cables, rows, rocket)
     for c in range(q_r.shape[0]):
         iq = jnp.concatenate([q_r[c].reshape(-1), q_s[c].reshape(-1), q_u[c].reshape(-1)])
         iv = jnp.concatenate([v_r[c].reshape(-1), v_s[c].reshape(-1), v_u[c].reshape(-1)])
@@ -196,4 +240,16 @@ def dense_reference(lin: CableLinearisation, state):
         J = J.at[iq[:, None], iv[None, :]].set(jnp.eye(iq.size, dtype=flat.dtype))
         J = J.at[iv[:, None], iq[None, :]].set(JK)
         J = J.at[iv[:, None], iv[None, :]].set(JC)
+        if lin.coupling is not None:
+            D = coupling_columns[c]
+            JD = jnp.linalg.solve(M, D)
+            if lin.active:
+                JD = JD.at[jnp.asarray([n_r + a for a in lin.active])].set(0.0)
+            J = J.at[iv[:, None], i_rocket[None, :]].set(JD)
+    if lin.hinge is not None:
+        ia, iw = (jnp.asarray(x).astype(int) for x in lin.hinge_rows(unravel(jnp.arange(n, dtype=flat.dtype))))
+        K_h, C_h = lin.hinge
+        J = J.at[ia[:, None], iw[None, :]].set(jnp.eye(ia.size, dtype=flat.dtype))
+        J = J.at[iw[:, None], ia[None, :]].set(K_h)
+        J = J.at[iw[:, None], iw[None, :]].set(C_h)
     return DenseLinearisation(J, unravel)
