@@ -49,7 +49,7 @@ import numpy as np
 
 from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.layout import ArrestingLayout, CaptureState
-from jaxcable.arresting.landing import LEVEL_DEFAULTS, LEVEL_STEP_CONTROL
+from jaxcable.arresting.landing import LEVEL_STEP_CONTROL, level_solver_settings
 from jaxcable.arresting.passive import (
     DEFAULT_CABLE_DAMPING_S,
     G_CRITERIA,
@@ -330,7 +330,8 @@ def passive_case_fn(
     cable_damping_s: float = DEFAULT_CABLE_DAMPING_S,
 ) -> PassiveCaseFunction:
     """The passive-phase case function with Table 1 defaults and the level's solver settings
-    (``LEVEL_DEFAULTS`` of :mod:`jaxcable.arresting.landing` where an argument is ``None``).
+    (:func:`jaxcable.arresting.landing.level_solver_settings` of the level and ``cable_damping_s``
+    where an argument is ``None``).
 
     Defaults chosen by measurement (rigid level, scenario III, /tmp scripts of the sweep's author):
 
@@ -350,7 +351,9 @@ def passive_case_fn(
       of its 100 Hz 3 dB frequency).
     """
     check_choice("fidelity", fidelity, SWEEP_FIDELITIES)
-    d_solver, d_rtol, d_atol, d_steps = LEVEL_DEFAULTS[fidelity]
+    # the level's settings for this damping: rosw from STIFF_DAMPING_S on (Bosh3 would run at its
+    # stability limit there, ~2 million steps per case at the calibrated damping)
+    d_solver, d_rtol, d_atol, d_steps = level_solver_settings(fidelity, float(cable_damping_s))
     return PassiveCaseFunction(
         buffer=BufferDevice() if buffer is None else buffer,
         layout=ArrestingLayout() if layout is None else layout,

@@ -645,9 +645,19 @@ class TwoPhaseCaseFunction(AbstractLandingCaseFunction):
         land, o = self._solve(case)
         return dict(case[1], **self._capture_histories(o), **passive_histories(land))
 
+    def passive_solver_settings(self):
+        """``{fidelity: (solver, rtol, atol, max_steps)}`` of the passive phase, chosen from the static
+        ``cable_damping_s`` (inside the sweep's trace the scene's damping is a tracer, which
+        :func:`.landing.level_solver_settings` would read as the explicit default: Bosh3 at its
+        stability limit on stiffly damped cables)."""
+        return {self.fidelity: level_solver_settings(self.fidelity, self.cable_damping_s)}
+
     def _solve(self, case):
         out1, _, passive = case
-        return _passive_phase(out1, passive, self.fidelity, self.t_end_s, self.criteria, adjoint=diffrax.ForwardMode())
+        return _passive_phase(
+            out1, passive, self.fidelity, self.t_end_s, self.criteria, self.passive_solver_settings(),
+            adjoint=diffrax.ForwardMode(),
+        )  # fmt: skip
 
     def __call__(self, params):
         """One row: success flags, criteria and margins, the capture margin, the tracking error at
