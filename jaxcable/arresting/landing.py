@@ -81,7 +81,7 @@ against Bosh3's 0.87 / 117 s (ale) and 1.2 / 214 s (full), measured side by side
 STIFF_LEVEL_DEFAULTS = {
     # level: (solver, rtol, atol, max_steps) when cable_damping_s >= STIFF_DAMPING_S. rtol 1e-5:
     # with the hooks in J, rosw at 1e-4 errs by 2-4e-4 in the criteria and up to 3e-4 in the energy
-    # budget (full), at 1e-5 by 2e-6 to 5e-5 and 1.5e-6 to 2.7e-5 (the issue's budget goal: 1e-4;
+    # budget (full), at 1e-5 by 2e-6 to 5e-5 and 1.5e-6 to 2.7e-5 (the budget goal: 1e-4;
     # the reference: rosw at 1e-7; experiments/results/bench_stiff_coupling.md)
     "ale": ("rosw", 1e-5, 1e-5, 400_000),
     "full": ("rosw", 1e-5, 1e-5, 400_000),
