@@ -25,6 +25,7 @@ import numpy as np
 
 from jax.flatten_util import ravel_pytree
 
+from jaxcable.arresting.cable_sets import HookPoints
 from jaxcable.core import banded
 from jaxcable.core.rosenbrock import DenseLinearisation
 
@@ -72,8 +73,6 @@ class CableLinearisation(eqx.Module):
     coupling: "HookCoupling | None" = None
     """The cable rows' columns on the rocket's coordinates (the contact forces move with the
     hooks), applied as a JVP per solve; None: the hooks held fixed (the rocket's columns zero)."""
-    rocket_rows: Callable | None = eqx.field(static=True, default=None)
-    """``rocket_rows(state) -> the rocket's state`` (with ``coupling``)."""
 
     def factor(self, beta):
         B = self.blocks
@@ -161,7 +160,7 @@ class _CableFactors(eqx.Module):
         if self.lin.coupling is not None:
             # the rocket's rows are solved first (J holds no cable columns there); their solution
             # moves the hooks, whose contact forces enter the cable rows: + beta D x_rocket
-            d_r, d_z = self.lin.coupling.forces_jvp(self.lin.rocket_rows(out))
+            d_r, d_z = self.lin.coupling.forces_jvp(self.lin.coupling.rows(out))
             g_r, g_z = g_r + beta * d_r, g_z + beta * d_z
         active = list(self.lin.active)
         if active:
@@ -188,10 +187,10 @@ class HookCoupling(eqx.Module):
     cable_state: eqx.Module
     rocket_state: eqx.Module
     t: jax.Array
+    rows: Callable = eqx.field(static=True)
+    """``rows(state) -> the rocket's state`` within the scene's state."""
 
     def forces(self, rocket_state):
-        from jaxcable.arresting.cable_sets import HookPoints
-
         pos, vel = self.rocket.hook_points_world(rocket_state)
         return self.cables.cable_forces(self.cable_state, HookPoints(positions=pos, velocities=vel), self.t)
 
@@ -210,9 +209,8 @@ def dense_reference(lin: CableLinearisation, state):
     B = lin.blocks
     J = jnp.zeros((n, n), flat.dtype)
     if lin.coupling is not None:
-        rocket = lin.rocket_rows(state)
-        r_flat, r_unravel = ravel_pytree(rocket)
-        i_rocket = ravel_pytree(lin.rocket_rows(unravel(jnp.arange(n, dtype=flat.dtype))))[0].astype(int)
+        r_flat, r_unravel = ravel_pytree(lin.coupling.rows(state))
+        i_rocket = ravel_pytree(lin.coupling.rows(unravel(jnp.arange(n, dtype=flat.dtype))))[0].astype(int)
 
         def coupled(x):
             d_r, d_z = lin.coupling.forces_jvp(r_unravel(x))

@@ -90,7 +90,7 @@ from jaxcable.core.scene import AbstractScene
 from jaxcable.core.simulate import simulate
 from jaxcable.core.validation import check_choice, check_positive
 from jaxcable.arresting.buffer import BufferDevice
-from jaxcable.arresting.cable_sets import AleCables, throat_weights
+from jaxcable.arresting.cable_sets import throat_weights
 from jaxcable.arresting.control import CALIBRATED_MOTOR_BANDWIDTH_PER_S, TrackingController
 from jaxcable.arresting.measurement import filtered_measurement, measurement_noise_track, target_point
 from jaxcable.arresting.landing import LEVEL_STEP_CONTROL, level_solver_settings, run_landing
@@ -430,9 +430,11 @@ def two_phase_outputs(
 
 def _passive_phase(out1, passive, fidelity, t_end_s, criteria, solver_settings=None, adjoint=None):
     """Phase 2 on its built scene ``passive`` with the level's solver and step control: its Result
-    and phase 1's outputs ``out1`` joined with the passive outputs, the smooth maxima and ``landed``."""
-    damping = passive.cables.subsystems.cable.damping_s if isinstance(passive.cables, AleCables) else None
-    solver, rtol, atol, steps = (solver_settings or {}).get(fidelity, level_solver_settings(fidelity, damping))
+    and phase 1's outputs ``out1`` joined with the passive outputs, the smooth maxima and ``landed``.
+    ``solver_settings`` ``{fidelity: (solver, rtol, atol, max_steps)}`` overrides the level's default
+    (the explicit one); the ale/full callers pass theirs, chosen from their static damping (the
+    scene's damping is a tracer here, :meth:`TwoPhaseCaseFunction.passive_solver_settings`)."""
+    solver, rtol, atol, steps = (solver_settings or {}).get(fidelity, level_solver_settings(fidelity))
     pcoeff, icoeff = LEVEL_STEP_CONTROL[fidelity]
     land = simulate(
         passive, t_end_s, solver=solver, rtol=rtol, atol=atol, max_steps=steps, adjoint=adjoint,
