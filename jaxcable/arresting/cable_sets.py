@@ -403,9 +403,19 @@ class AleCables(eqx.Module):
         power = jnp.sum(span_forces[:, :, 0] * a1) + jnp.sum(span_forces[:, :, 1] * a2) + jnp.sum(f_hook * V)
         return span_forces, f_hook, normal, power, touching
 
+    def kinematics(self, state: CableState):
+        """The four cables' stacked :meth:`CableSubsystem.kinematics` (positions, velocities, element
+        geometry) at ``state``."""
+        return jax.vmap(lambda sub, q, qdot: sub.kinematics(q, qdot))(self.subsystems, state.q, state.qdot)
+
+    def contact_on_hooks(self, kin, hooks: HookPoints):
+        """The contact forces on the hooks' points (4 hooks, 3 points, 3) [N] with the cables at
+        ``kin`` (:meth:`kinematics`): what :meth:`respond` returns as ``f_hook``."""
+        return self._contact(kin, hooks)[1]
+
     def respond(self, state: CableState, hooks: HookPoints, t=0.0):
         """Cable accelerations and the forces on the hooks at time ``t`` [s] (used by the wind only)."""
-        kin = jax.vmap(lambda sub, q, qdot: sub.kinematics(q, qdot))(self.subsystems, state.q, state.qdot)
+        kin = self.kinematics(state)
         span_forces, f_hook, normal, power, touching = self._contact(kin, hooks)
         lo, hi = self.span_slice
 
@@ -439,7 +449,7 @@ class AleCables(eqx.Module):
         feeds to the accelerations, the hooks held fixed): ``(Q_r (4, n_int, 3), Q_slow (4,
         n_slow))`` [N] (:meth:`CableSubsystem.generalised_forces`). Internal node ``j`` depends on
         the positions and velocities of nodes ``j - 1, j, j + 1`` and on the slow coordinates."""
-        kin = jax.vmap(lambda sub, q, qdot: sub.kinematics(q, qdot))(self.subsystems, state.q, state.qdot)
+        kin = self.kinematics(state)
         span_forces = self._contact(kin, hooks)[0]
         lo, hi = self.span_slice
 

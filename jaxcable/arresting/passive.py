@@ -351,20 +351,54 @@ class PassiveLandingScene(AbstractScene):
         )  # fmt: skip
 
     def _hinge_jacobian(self, t, state):
-        """``(d phi_dd / d phi, d phi_dd / d phi_dot)`` (nh, nh) of the hooks' hinges from 2 nh JVPs of
-        the vector field in one vectorised call (the hook dampers, c_h l_h^2 / I ~ 2e4 1/s, and the
-        contact on the hooks' small inertia are the stiff part of the rocket)."""
+        """``(d phi_dd / d phi, d phi_dd / d phi_dot)`` (nh, nh) of the hooks' hinges, diagonal: the
+        hook dampers (c_h l_h^2 / I ~ 2e4 1/s) and the contact on the hooks' small inertia (~5e6
+        1/s^2) are the stiff part of the rocket.
+
+        ``phi_dd = G tau + ...`` with ``tau`` the hinge torques (spring-damper ``-k_h l_h^2 phi -
+        c_h l_h^2 phi_dot``, and the contact's, ``sum_p F_p . dP_p/dphi`` over the hook's points)
+        and ``G`` the hinges' rows of the inverse mass matrix. Each hook's contact sees only its own
+        points, so one tangent on every hinge at once gives each hook's own torque derivative (one
+        JVP of the contact for the angles, one for the rates), and one JVP of the rocket's
+        equations in the torques gives ``G 1``. Left out: the hooks' coupling through the rocket's
+        inertia (the off-diagonal entries: 0.3% of the diagonal in angle, 1-3% in rate on the
+        design case), the change of the mass matrix and of the lever with the angle, and the
+        contact's push on the rocket's bodies (their mass is 10^2-10^3 times the hook's); a
+        W-method keeps its order with any ``J`` (``tests/arresting/test_stiff.py`` checks the
+        diagonal against ``jax.jacfwd`` of the vector field). Why not the exact 2 nh JVPs of the
+        vector field: their derivative of the flexible rocket's mass matrix and Cholesky solve
+        cost 1 ms of the 2.3 ms per step in the W-method's loop (full level, design case, beta =
+        1e-2 s, 0.1 s, rtol 1e-4; 2-core CPU, float64), for the same steps
+        (``docs/stiff_integrator.md``)."""
+        rocket = state.rocket
         phi, rate = _hinge_rows(state)
-        nh = phi.shape[0]
+        one, zero = jnp.ones_like(phi), jnp.zeros_like(phi)
+        kin = self.cables.kinematics(state.cables)
 
-        def accel(phi_, rate_):
-            st = eqx.tree_at(_hinge_rows, state, (phi_, rate_))
-            return self.vector_field(t, st).rocket.hinge_rate
+        def hooks_at(phi_, rate_):
+            return self.hooks(eqx.tree_at(lambda s: (s.hinge_angle, s.hinge_rate), rocket, (phi_, rate_)))
 
-        E = jnp.eye(nh, dtype=phi.dtype)
-        Z = jnp.zeros_like(E)
-        _, P = jax.vmap(lambda a, b: jax.jvp(accel, (phi, rate), (a, b)))(jnp.concatenate([E, Z]), jnp.concatenate([Z, E]))
-        return P[:nh].T, P[nh:].T
+        lever = jax.jvp(lambda p: hooks_at(p, rate).positions, (phi,), (one,))[1]  # dP/dphi (4, 3, 3)
+
+        def contact_torques(phi_, rate_):
+            return jnp.sum(self.cables.contact_on_hooks(kin, hooks_at(phi_, rate_)) * lever, axis=(-2, -1))
+
+        _, dtau = jax.vmap(lambda a, b: jax.jvp(contact_torques, (phi, rate), (a, b)))(
+            jnp.stack([one, zero]), jnp.stack([zero, one])
+        )
+        f_hook = self.cables.contact_on_hooks(kin, self.hooks(rocket))
+        loads = self._rocket_aero(t, rocket)[0]
+
+        def accel(tau):
+            return self.rocket.derivative(
+                rocket, self.gravity, hook_forces_N=f_hook, point_forces=loads, hinge_torques_N_m=tau
+            ).hinge_rate
+
+        g = jax.jvp(accel, (zero,), (one,))[1]
+        p = self.rocket.params
+        K = g * (dtau[0] - p.hook_rotational_stiffness_N_m_per_rad)
+        C = g * (dtau[1] - p.hook_rotational_damping_N_m_s_per_rad)
+        return jnp.diag(K), jnp.diag(C)
 
     def num_saved(self, t1) -> int:
         """Number of default saved samples over ``[0, t1]``: ``n_save`` if given, else
