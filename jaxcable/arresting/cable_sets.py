@@ -389,9 +389,8 @@ class AleCables(eqx.Module):
         lo, hi = self.span_slice
         r1, r2 = kin.r[:, lo:hi], kin.r[:, lo + 1 : hi + 1]  # (4 cables, n_span, 3)
         a1, a2 = kin.a1[:, lo:hi], kin.a2[:, lo:hi]  # material velocities at element ends
-        P, V = hooks.positions, hooks.velocities
-        caps_p = jnp.stack([P[:, 0:2], P[:, 1:3]], axis=1)  # (4 hooks, 2 caps, 2 ends, 3)
-        caps_v = jnp.stack([V[:, 0:2], V[:, 1:3]], axis=1)
+        V = hooks.velocities
+        caps_p, caps_v = _capsules(hooks)
         span_forces, f_caps, normal, penetration = _contact_all_pairs(
             self.contact_tangent_pairs, self.contact, self.hook_radius_m, self.cable_radius_m,
             caps_p, caps_v, r1, r2, a1, a2,
@@ -412,6 +411,43 @@ class AleCables(eqx.Module):
         """The contact forces on the hooks' points (4 hooks, 3 points, 3) [N] with the cables at
         ``kin`` (:meth:`kinematics`): what :meth:`respond` returns as ``f_hook``."""
         return self._contact(kin, hooks)[1]
+
+    def contact_pairs_picked(self, kin, hooks: HookPoints):
+        """Flat indices of the pairs whose contact derivative is taken (the ``contact_tangent_pairs``
+        of largest penetration, as :func:`_contact_all_pairs`'s JVP picks them; all pairs when it
+        is None), for :meth:`contact_forces_jvp`."""
+        lo, hi = self.span_slice
+        caps_p, caps_v = _capsules(hooks)
+        penetration = _dense_pairs(
+            self.contact, self.hook_radius_m, self.cable_radius_m, caps_p, caps_v,
+            kin.r[:, lo:hi], kin.r[:, lo + 1 : hi + 1], kin.a1[:, lo:hi], kin.a2[:, lo:hi],
+        )[3]  # fmt: skip
+        m = self.contact_tangent_pairs
+        if m is None or m >= penetration.shape[0]:
+            return jnp.arange(penetration.shape[0])
+        return jax.lax.top_k(jax.lax.stop_gradient(penetration), m)[1]
+
+    def contact_forces_jvp(self, state: CableState, kin, hooks: HookPoints, d_hooks: HookPoints, picked):
+        """The change of :meth:`cable_forces` ``(dQ_r (4, n_int, 3), dQ_slow (4, n_slow))`` [N] when
+        the hooks' points move by ``d_hooks``, the cables held at ``state`` (``kin``: its
+        :meth:`kinematics`), from the pairs ``picked`` (:meth:`contact_pairs_picked` at the same
+        state): the derivative :meth:`cable_forces`'s JVP takes, without recomputing every pair, the
+        pick and the cables' own forces."""
+        lo, hi = self.span_slice
+        r1, r2, a1, a2 = kin.r[:, lo:hi], kin.r[:, lo + 1 : hi + 1], kin.a1[:, lo:hi], kin.a2[:, lo:hi]
+
+        def span_forces(P, V):
+            caps_p, caps_v = _capsules(HookPoints(positions=P, velocities=V))
+            return _picked_pairs(picked, self.contact, self.hook_radius_m, self.cable_radius_m, caps_p, caps_v, r1, r2, a1, a2)[0]  # fmt: skip
+
+        d_span = jax.jvp(span_forces, (hooks.positions, hooks.velocities), (d_hooks.positions, d_hooks.velocities))[1]
+
+        def one(sub, q, qdot, kin, d_span):
+            n_el = kin.length.shape[0]
+            d_el = jnp.pad(d_span, ((lo, n_el - hi), (0, 0), (0, 0)))
+            return jax.jvp(lambda ef: sub.generalised_forces(q, qdot, kin, ef), (jnp.zeros_like(d_el),), (d_el,))[1]
+
+        return jax.vmap(one)(self.subsystems, state.q, state.qdot, kin, d_span)
 
     def respond(self, state: CableState, hooks: HookPoints, t=0.0):
         """Cable accelerations and the forces on the hooks at time ``t`` [s] (used by the wind only)."""
@@ -542,6 +578,13 @@ class AleCables(eqx.Module):
 # ------------------------------------------------------------------------------------------------
 # Hook-cable contact of all pairs, with a sparse derivative
 # ------------------------------------------------------------------------------------------------
+
+
+def _capsules(hooks: HookPoints):
+    """The hooks' two capsules (arm: hinge-tip, barb: tip-barb end) as end points and end
+    velocities, each (4 hooks, 2 capsules, 2 ends, 3)."""
+    P, V = hooks.positions, hooks.velocities
+    return jnp.stack([P[:, 0:2], P[:, 1:3]], axis=1), jnp.stack([V[:, 0:2], V[:, 1:3]], axis=1)
 
 
 def _pair_law(law, hook_radius, cable_radius, h0, h1, hv0, hv1, e1, e2, v1, v2):

@@ -344,7 +344,7 @@ class PassiveLandingScene(AbstractScene):
             return ExplicitLinearisation()
         blocks = self.cables.stiff_blocks(state.cables, self.hooks(state.rocket), t)
         hinge = self._hinge_jacobian(t, state) if state.rocket.hinge_rate.shape[0] else None
-        coupling = HookCoupling(self.cables, self.rocket, state.cables, state.rocket, jnp.asarray(t), rows=_rocket_rows) if hook_coupling else None  # fmt: skip
+        coupling = HookCoupling.at(self.cables, self.rocket, state.cables, state.rocket, t, rows=_rocket_rows) if hook_coupling else None  # fmt: skip
         return CableLinearisation(
             blocks, rows=_cable_rows, active=self.cables.subsystems.route.active_slots, hinge=hinge,
             hinge_rows=_hinge_rows if hinge is not None else None, coupling=coupling,

@@ -176,11 +176,13 @@ class _CableFactors(eqx.Module):
 class HookCoupling(eqx.Module):
     """The cables' generalised forces as functions of the rocket's state, through the hooks'
     points (the hook-cable contact), linearised at one state: ``forces_jvp(x)`` is ``D x`` with
-    ``D = dQ / d(rocket state)`` of :meth:`jaxcable.arresting.cable_sets.AleCables.cable_forces`,
-    one JVP (only the contact terms carry a tangent). Without these columns the contact node under
-    a hook sees a fixed hook: the W-method's error estimate then resolves the node's motion
-    relative to the rocket, holding the step near 3e-5 s on the design case (with them, the same
-    error at 4x the step; ``docs/stiff_integrator.md``)."""
+    ``D = dQ / d(rocket state)`` of :meth:`jaxcable.arresting.cable_sets.AleCables.cable_forces`:
+    one JVP of the hooks' points and one of the contact on the pairs picked at that state
+    (:meth:`~jaxcable.arresting.cable_sets.AleCables.contact_forces_jvp`; the cables' kinematics
+    and the pick computed once per linearisation, not per stage). Without these columns the
+    contact node under a hook sees a fixed hook: the W-method's error estimate then resolves the
+    node's motion relative to the rocket, holding the step near 3e-5 s on the design case (with
+    them, the same error at 4x the step; ``docs/stiff_integrator.md``)."""
 
     cables: eqx.Module
     rocket: eqx.Module
@@ -189,13 +191,34 @@ class HookCoupling(eqx.Module):
     t: jax.Array
     rows: Callable = eqx.field(static=True)
     """``rows(state) -> the rocket's state`` within the scene's state."""
+    kin: eqx.Module | None = None
+    """The cables' kinematics at ``cable_state`` (:meth:`AleCables.kinematics`); filled by
+    :meth:`at`."""
+    picked: jax.Array | None = None
+    """The contact pairs whose derivative is taken (:meth:`AleCables.contact_pairs_picked`)."""
+
+    @classmethod
+    def at(cls, cables, rocket, cable_state, rocket_state, t, rows):
+        """The coupling at one state, with the cables' kinematics and the contact pick computed."""
+        kin = cables.kinematics(cable_state)
+        picked = cables.contact_pairs_picked(kin, _hook_points(rocket, rocket_state))
+        return cls(cables, rocket, cable_state, rocket_state, jnp.asarray(t), rows=rows, kin=kin, picked=picked)
 
     def forces(self, rocket_state):
-        pos, vel = self.rocket.hook_points_world(rocket_state)
-        return self.cables.cable_forces(self.cable_state, HookPoints(positions=pos, velocities=vel), self.t)
+        """The cables' generalised forces with the rocket at ``rocket_state`` (the reference
+        :meth:`forces_jvp` is checked against)."""
+        return self.cables.cable_forces(self.cable_state, _hook_points(self.rocket, rocket_state), self.t)
 
     def forces_jvp(self, x_rocket):
-        return jax.jvp(self.forces, (self.rocket_state,), (x_rocket,))[1]
+        if self.kin is None:
+            return jax.jvp(self.forces, (self.rocket_state,), (x_rocket,))[1]
+        hooks, d_hooks = jax.jvp(lambda r: _hook_points(self.rocket, r), (self.rocket_state,), (x_rocket,))
+        return self.cables.contact_forces_jvp(self.cable_state, self.kin, hooks, d_hooks, self.picked)
+
+
+def _hook_points(rocket, rocket_state):
+    pos, vel = rocket.hook_points_world(rocket_state)
+    return HookPoints(positions=pos, velocities=vel)
 
 
 def dense_reference(lin: CableLinearisation, state):
