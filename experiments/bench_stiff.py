@@ -39,6 +39,8 @@ Usage:
         --solvers rosw bosh3 --ref-rtol 1e-6 --tag _full
     python experiments/bench_stiff.py --levels ale --betas 0 1e-4 1e-3 1e-2 --tag _solvers
     python experiments/bench_stiff.py --quick          # ale, design, beta 1e-5 and 1e-2, 0.05 s
+    python experiments/bench_stiff.py --levels ale --cases design --betas 1e-5 1e-2 --solvers rosw bosh3 \
+        --float32 --tag _float32           # the solvers in float32 against the float64 reference
 """
 
 from __future__ import annotations
@@ -231,6 +233,8 @@ def main():
     p.add_argument("--ref-rtol", type=float, default=1e-7, help="tolerance of the rosw reference")
     p.add_argument("--tag", default="", help="suffix of the results' file names (e.g. _full)")
     p.add_argument("--out", default=None)
+    p.add_argument("--float32", action="store_true",
+                   help="run the solvers in float32 (x64 off, the scene built again); the reference stays float64")  # fmt: skip
     a = p.parse_args()
     enable_x64()
     if a.quick:
@@ -245,6 +249,9 @@ def main():
                 scene = build_scene(case, level, beta, a.t_end)
                 ref = run(scene, level, a.t_end, rosw, a.ref_rtol, a.max_steps, (case, level, "ref"), repeat=False)
                 data["cases"].append(dict(case=case, level=level, beta=beta, solver="rosw (reference)", rtol=a.ref_rtol, **ref))
+                if a.float32:  # the reference above in float64, the solvers below in float32
+                    enable_x64(False)
+                    scene = build_scene(case, level, beta, a.t_end)
                 for name, solver, rtol, max_steps in _solvers(a.solvers, a.max_steps, a.implicit_max_steps):
                     program = (case, level, name, rtol)
                     if name == "rosw_fixed_hooks":
@@ -254,9 +261,11 @@ def main():
                     c["max_rel_error"] = (
                         max(abs(c[k] - ref[k]) / abs(ref[k]) for k in KEYS) if c["finished"] and ref["finished"] else None
                     )
-                    data["cases"].append(dict(case=case, level=level, beta=beta, solver=name, rtol=rtol, **c))
+                    label = name + (" (float32)" if a.float32 else "")
+                    data["cases"].append(dict(case=case, level=level, beta=beta, solver=label, rtol=rtol, **c))
                     print(data["cases"][-1], flush=True)
                     _report.finish(data, out, stem, write_md)
+                enable_x64()
     if a.mesh:
         for n_span in (16, 32, 64):
             scene = build_scene("design", "ale", 1e-2, 0.02, n_span=n_span)
