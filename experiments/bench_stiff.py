@@ -40,7 +40,8 @@ Usage:
     python experiments/bench_stiff.py --levels ale --betas 0 1e-4 1e-3 1e-2 --tag _solvers
     python experiments/bench_stiff.py --quick          # ale, design, beta 1e-5 and 1e-2, 0.05 s
     python experiments/bench_stiff.py --levels ale --cases design --betas 1e-5 1e-2 --solvers rosw bosh3 \
-        --float32 --tag _float32           # the solvers in float32 against the float64 reference
+        --float32 --ref-json experiments/results/bench_stiff_coupling.json --tag _float32
+                                           # float32 against an earlier float64 run's references
 """
 
 from __future__ import annotations
@@ -159,6 +160,7 @@ def write_md(data, path):
         f"budget: the time it reached, its wall time and the time per attempted step. All solvers with "
         f"the levels' PI step-size controller (0.4, 0.3). Load: 1-min load average after the case.",
         "",
+        *([f"References (float64) taken from `{data['ref_json']}`.", ""] if data.get("ref_json") else []),
         "| case | level | beta [s] | solver | rtol | time [s] | steps | rejected | max rel. error "
         + "| energy budget | status | load |",
         "|---|---|---:|---|---:|---|---:|---:|---:|---:|---|---:|",
@@ -234,9 +236,24 @@ def main():
     p.add_argument("--tag", default="", help="suffix of the results' file names (e.g. _full)")
     p.add_argument("--out", default=None)
     p.add_argument("--float32", action="store_true",
-                   help="run the solvers in float32 (x64 off, the scene built again); the reference stays float64")  # fmt: skip
+                   help="run the solvers in float32 (x64 off); the references come from --ref-json")  # fmt: skip
+    p.add_argument("--ref-json", default=None,
+                   help="with --float32: an earlier float64 run's json whose references (same case, level, "
+                        "beta, t_end) the errors are taken against")  # fmt: skip
     a = p.parse_args()
-    enable_x64()
+    if a.float32 and not a.ref_json:
+        p.error("--float32 needs --ref-json (a float64 run's results; x64 is process-wide, and a scene "
+                "built in float64 keeps float64 leaves that a float32 solve cannot mix with)")
+    enable_x64(not a.float32)
+    refs = {}
+    if a.ref_json:
+        import json
+
+        earlier = json.load(open(a.ref_json))
+        if abs(earlier["t_end_s"] - a.t_end) > 1e-12:
+            p.error(f"--ref-json was run to t_end = {earlier['t_end_s']} s, not {a.t_end} s")
+        refs = {(c.get("case", "design"), c["level"], c["beta"]): c for c in earlier["cases"]
+                if c["solver"] == "rosw (reference)"}  # fmt: skip
     if a.quick:
         a.levels, a.cases, a.betas, a.t_end = ["ale"], ["design"], [1e-5, 1e-2], 0.05
     stem = STEM + a.tag
@@ -247,11 +264,12 @@ def main():
         for level in a.levels:
             for beta in a.betas:
                 scene = build_scene(case, level, beta, a.t_end)
-                ref = run(scene, level, a.t_end, rosw, a.ref_rtol, a.max_steps, (case, level, "ref"), repeat=False)
-                data["cases"].append(dict(case=case, level=level, beta=beta, solver="rosw (reference)", rtol=a.ref_rtol, **ref))
-                if a.float32:  # the reference above in float64, the solvers below in float32
-                    enable_x64(False)
-                    scene = build_scene(case, level, beta, a.t_end)
+                if a.ref_json:
+                    ref = refs[(case, level, beta)]
+                    data["ref_json"] = a.ref_json
+                else:
+                    ref = run(scene, level, a.t_end, rosw, a.ref_rtol, a.max_steps, (case, level, "ref"), repeat=False)
+                    data["cases"].append(dict(case=case, level=level, beta=beta, solver="rosw (reference)", rtol=a.ref_rtol, **ref))
                 for name, solver, rtol, max_steps in _solvers(a.solvers, a.max_steps, a.implicit_max_steps):
                     program = (case, level, name, rtol)
                     if name == "rosw_fixed_hooks":
@@ -265,7 +283,6 @@ def main():
                     data["cases"].append(dict(case=case, level=level, beta=beta, solver=label, rtol=rtol, **c))
                     print(data["cases"][-1], flush=True)
                     _report.finish(data, out, stem, write_md)
-                enable_x64()
     if a.mesh:
         for n_span in (16, 32, 64):
             scene = build_scene("design", "ale", 1e-2, 0.02, n_span=n_span)
