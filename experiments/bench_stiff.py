@@ -249,7 +249,8 @@ def main():
     if a.ref_json:
         import json
 
-        earlier = json.load(open(a.ref_json))
+        with open(a.ref_json) as f:
+            earlier = json.load(f)
         if abs(earlier["t_end_s"] - a.t_end) > 1e-12:
             p.error(f"--ref-json was run to t_end = {earlier['t_end_s']} s, not {a.t_end} s")
         refs = {(c.get("case", "design"), c["level"], c["beta"]): c for c in earlier["cases"]
