@@ -386,9 +386,7 @@ class AleCables(eqx.Module):
         the number of pairs in contact. The values are always computed for every pair; derivatives
         (JVPs, hence also reverse mode) follow ``contact_tangent_pairs`` (see
         :func:`_contact_all_pairs`)."""
-        lo, hi = self.span_slice
-        r1, r2 = kin.r[:, lo:hi], kin.r[:, lo + 1 : hi + 1]  # (4 cables, n_span, 3)
-        a1, a2 = kin.a1[:, lo:hi], kin.a2[:, lo:hi]  # material velocities at element ends
+        r1, r2, a1, a2 = self._span_ends(kin)
         V = hooks.velocities
         caps_p, caps_v = _capsules(hooks)
         span_forces, f_caps, normal, penetration = _contact_all_pairs(
@@ -401,6 +399,12 @@ class AleCables(eqx.Module):
         # contact power on both sides (for the energy budget): sum F.v at the application points
         power = jnp.sum(span_forces[:, :, 0] * a1) + jnp.sum(span_forces[:, :, 1] * a2) + jnp.sum(f_hook * V)
         return span_forces, f_hook, normal, power, touching
+
+    def _span_ends(self, kin):
+        """The arresting span's element ends from the stacked ``kin``: positions ``r1, r2`` and
+        material velocities ``a1, a2``, each (4 cables, n_span, 3)."""
+        lo, hi = self.span_slice
+        return kin.r[:, lo:hi], kin.r[:, lo + 1 : hi + 1], kin.a1[:, lo:hi], kin.a2[:, lo:hi]
 
     def kinematics(self, state: CableState):
         """The four cables' stacked :meth:`CableSubsystem.kinematics` (positions, velocities, element
@@ -416,16 +420,14 @@ class AleCables(eqx.Module):
         """Flat indices of the pairs whose contact derivative is taken (the ``contact_tangent_pairs``
         of largest penetration, as :func:`_contact_all_pairs`'s JVP picks them; all pairs when it
         is None), for :meth:`contact_forces_jvp`."""
-        lo, hi = self.span_slice
         caps_p, caps_v = _capsules(hooks)
         penetration = _dense_pairs(
-            self.contact, self.hook_radius_m, self.cable_radius_m, caps_p, caps_v,
-            kin.r[:, lo:hi], kin.r[:, lo + 1 : hi + 1], kin.a1[:, lo:hi], kin.a2[:, lo:hi],
-        )[3]  # fmt: skip
+            self.contact, self.hook_radius_m, self.cable_radius_m, caps_p, caps_v, *self._span_ends(kin)
+        )[3]
         m = self.contact_tangent_pairs
         if m is None or m >= penetration.shape[0]:
             return jnp.arange(penetration.shape[0])
-        return jax.lax.top_k(jax.lax.stop_gradient(penetration), m)[1]
+        return _deepest_pairs(penetration, m)
 
     def contact_forces_jvp(self, state: CableState, kin, hooks: HookPoints, d_hooks: HookPoints, picked):
         """The change of :meth:`cable_forces` ``(dQ_r (4, n_int, 3), dQ_slow (4, n_slow))`` [N] when
@@ -434,7 +436,7 @@ class AleCables(eqx.Module):
         state): the derivative :meth:`cable_forces`'s JVP takes, without recomputing every pair, the
         pick and the cables' own forces."""
         lo, hi = self.span_slice
-        r1, r2, a1, a2 = kin.r[:, lo:hi], kin.r[:, lo + 1 : hi + 1], kin.a1[:, lo:hi], kin.a2[:, lo:hi]
+        r1, r2, a1, a2 = self._span_ends(kin)
 
         def span_forces(P, V):
             caps_p, caps_v = _capsules(HookPoints(positions=P, velocities=V))
@@ -635,6 +637,12 @@ def _picked_pairs(picked, law, hook_radius, cable_radius, caps_p, caps_v, r1, r2
     return span_forces, f_caps, normal
 
 
+def _deepest_pairs(penetration, m):
+    """Flat indices of the ``m`` pairs of largest penetration: the pairs whose contact carries a
+    derivative (:func:`_contact_all_pairs`, :meth:`AleCables.contact_pairs_picked`)."""
+    return jax.lax.top_k(jax.lax.stop_gradient(penetration), m)[1]
+
+
 @functools.partial(jax.custom_jvp, nondiff_argnums=(0,))
 def _contact_all_pairs(m, law, hook_radius, cable_radius, caps_p, caps_v, r1, r2, a1, a2):
     """Contact totals of all (cable, hook, capsule, element) pairs: ``(span_forces (4, n_span, 2,
@@ -664,6 +672,6 @@ def _contact_all_pairs_jvp(m, primals, tangents):
     if m is None or m >= n_pairs:
         _, tan = jax.jvp(lambda *p: _dense_pairs(*p)[:3], primals, tangents)
     else:
-        _, picked = jax.lax.top_k(jax.lax.stop_gradient(out[3]), m)
+        picked = _deepest_pairs(out[3], m)
         _, tan = jax.jvp(lambda *p: _picked_pairs(picked, *p), primals, tangents)
     return out, (*tan, jnp.zeros_like(out[3]))

@@ -188,30 +188,21 @@ class HookCoupling(eqx.Module):
     rocket: eqx.Module
     cable_state: eqx.Module
     rocket_state: eqx.Module
-    t: jax.Array
+    kin: eqx.Module
+    """The cables' kinematics at ``cable_state`` (:meth:`AleCables.kinematics`)."""
+    picked: jax.Array
+    """The contact pairs whose derivative is taken (:meth:`AleCables.contact_pairs_picked`)."""
     rows: Callable = eqx.field(static=True)
     """``rows(state) -> the rocket's state`` within the scene's state."""
-    kin: eqx.Module | None = None
-    """The cables' kinematics at ``cable_state`` (:meth:`AleCables.kinematics`); filled by
-    :meth:`at`."""
-    picked: jax.Array | None = None
-    """The contact pairs whose derivative is taken (:meth:`AleCables.contact_pairs_picked`)."""
 
     @classmethod
-    def at(cls, cables, rocket, cable_state, rocket_state, t, rows):
+    def at(cls, cables, rocket, cable_state, rocket_state, rows):
         """The coupling at one state, with the cables' kinematics and the contact pick computed."""
         kin = cables.kinematics(cable_state)
         picked = cables.contact_pairs_picked(kin, _hook_points(rocket, rocket_state))
-        return cls(cables, rocket, cable_state, rocket_state, jnp.asarray(t), rows=rows, kin=kin, picked=picked)
-
-    def forces(self, rocket_state):
-        """The cables' generalised forces with the rocket at ``rocket_state`` (the reference
-        :meth:`forces_jvp` is checked against)."""
-        return self.cables.cable_forces(self.cable_state, _hook_points(self.rocket, rocket_state), self.t)
+        return cls(cables, rocket, cable_state, rocket_state, kin, picked, rows=rows)
 
     def forces_jvp(self, x_rocket):
-        if self.kin is None:
-            return jax.jvp(self.forces, (self.rocket_state,), (x_rocket,))[1]
         hooks, d_hooks = jax.jvp(lambda r: _hook_points(self.rocket, r), (self.rocket_state,), (x_rocket,))
         return self.cables.contact_forces_jvp(self.cable_state, self.kin, hooks, d_hooks, self.picked)
 
