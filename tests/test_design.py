@@ -425,13 +425,14 @@ def test_two_phase_design_gradient_and_cli(capsys):
 def test_cable_damping_reaches_the_passive_scene():
     """The modelling parameter ``cable_damping_s`` (beta, not given in the paper) is passed to the
     cables of every case's scene (no solve: the scene is only built)."""
+    from jaxcable.arresting.calibration import CALIBRATED_CABLE_DAMPING_S
     from jaxcable.arresting.design import design_scene
 
     p = design_problem("m_w,F_f", n=2, cable_damping_s=3e-3)
     cap = jax.tree_util.tree_map(lambda a: a[0], p.captures)
     scene = design_scene(p, cap, paper_start(p))
     assert float(scene.cables.damping_s) == pytest.approx(3e-3)
-    assert design_problem("m_w,F_f", n=2).cable_damping_s == pytest.approx(1e-5)
+    assert design_problem("m_w,F_f", n=2).cable_damping_s == pytest.approx(CALIBRATED_CABLE_DAMPING_S)
 
 
 def test_brake_profile_gradient_matches_central_differences():

@@ -12,14 +12,21 @@ import numpy as np
 import pytest
 
 from jaxcable.arresting.landing import run_landing
+from jaxcable.arresting.passive import LIGHT_CABLE_DAMPING_S
 from jaxcable.arresting.design import CRITERIA, DesignProblem, design_buffer, design_problem, objective_and_grad, objective_value, paper_start
 
-T_END = 0.05  # s: the hooks' impact on the cables and the counterweights' start (~600 steps)
+T_END = 0.05  # s: the hooks' impact on the cables and the counterweights' start
+MESH = {"n_span_elements": 16, "n_fine": 8}  # half the default mesh: the path is under test, not the peaks
 
 
 @pytest.fixture(scope="module")
 def problem():
-    return design_problem("m_w,F_f", n=2, fidelity="ale", t_end_s=T_END)
+    # a lightly damped cable: explicit Bosh3, whose compile and 0.05 s cost a third of the W-method's
+    # at the default damping (measured 3.4 min for this file on the W-method); the gradient test
+    # below runs the default damping on the W-method
+    return design_problem(
+        "m_w,F_f", n=2, fidelity="ale", t_end_s=T_END, cable_damping_s=LIGHT_CABLE_DAMPING_S, scene_options=MESH
+    )
 
 
 def test_ale_batch_matches_independent_landings(problem):
@@ -28,7 +35,9 @@ def test_ale_batch_matches_independent_landings(problem):
     assert np.all(np.asarray(aux["status"]) == 0)
     for j in range(problem.n_cases):
         capture = jax.tree_util.tree_map(lambda v: v[j], problem.captures)
-        ref = run_landing("ale", capture, buffer=design_buffer(problem, x), t_end_s=T_END)
+        ref = run_landing(
+            "ale", capture, buffer=design_buffer(problem, x), t_end_s=T_END, cable_damping_s=LIGHT_CABLE_DAMPING_S, **MESH
+        )
         for key in CRITERIA:
             # the design's solve uses the checkpointed loop, run_landing the plain one: the same
             # solver and tolerance (Bosh3, 1e-4), different round-off, so a step or two may differ
@@ -45,7 +54,9 @@ def test_ale_gradient_matches_central_differences():
     # one capture, 0.15 s (by 0.05 s the buffer has barely moved: dJ/du ~ 1e-4 against J ~ 1, too
     # small for the differences to resolve), tight tolerance so that the differences resolve the
     # derivative; measured: 9.5e-7 and 2.7e-6 relative at h = 1e-3 (1.6e-5, 2.2e-5 at h = 1e-2)
-    p = design_problem("m_w,F_f", n=1, fidelity="ale", t_end_s=0.15, rtol=1e-7, atol=1e-7)
+    p = design_problem(
+        "m_w,F_f", n=1, fidelity="ale", t_end_s=0.15, rtol=1e-7, atol=1e-7, cable_damping_s=LIGHT_CABLE_DAMPING_S, scene_options=MESH
+    )
     u = p.space.to_unconstrained(paper_start(p))
     j, g, _ = objective_and_grad(p, u)
     assert np.all(np.isfinite(np.asarray(g))) and np.all(np.abs(np.asarray(g)) > 0)

@@ -61,7 +61,7 @@ from jaxcable.arresting.design_setup import (
     design_gain,
     design_scene,
 )
-from jaxcable.arresting.landing import LEVEL_DEFAULTS, LEVEL_STEP_CONTROL
+from jaxcable.arresting.landing import LEVEL_STEP_CONTROL, level_solver_settings
 from jaxcable.arresting.passive import landing_outputs, smooth_landing_outputs
 from jaxcable.arresting.two_phase import TwoPhaseCaseFunction, event_occurred, two_phase_outputs
 from jaxcable.arresting.uncertainty import UNCERTAIN_PARAMETERS
@@ -96,12 +96,13 @@ def _with_buffer(scene, buffer: BufferDevice):
 
 def _one_case(problem: DesignProblem, scene, adjoint):
     """One built scene: smooth and hard criteria, solver status and steps (scalars), with the
-    level's solver and step-size control (``LEVEL_DEFAULTS``, ``LEVEL_STEP_CONTROL``)."""
+    level's solver for the problem's cable damping (:func:`.landing.level_solver_settings`) and
+    step-size control (``LEVEL_STEP_CONTROL``)."""
     pcoeff, icoeff = LEVEL_STEP_CONTROL[problem.fidelity]
     res = simulate(
         scene,
         problem.t_end_s,
-        solver=LEVEL_DEFAULTS[problem.fidelity][0],
+        solver=level_solver_settings(problem.fidelity, problem.cable_damping_s)[0],
         rtol=problem.rtol,
         atol=problem.atol,
         max_steps=problem.max_steps,

@@ -15,7 +15,7 @@ from jaxcable.core.validation import check_choice, check_positive, float_array
 from jaxcable.studies.optimise import GRADIENT_MODES, DesignSpace, check_alpha, check_count, split_names
 from jaxcable.studies.sharding import stack_cases
 from jaxcable.arresting.buffer import BufferDevice
-from jaxcable.arresting.landing import LEVEL_DEFAULTS
+from jaxcable.arresting.landing import LEVEL_DEFAULTS, level_solver_settings
 from jaxcable.arresting.layout import ArrestingLayout, CaptureState
 from jaxcable.arresting.one_dof import paper_design
 from jaxcable.arresting.passive import (
@@ -258,8 +258,8 @@ class DesignProblem(eqx.Module):
     """width of the soft minimum over the four hooks' capture margins [m], shape ()"""
     cable_damping_s: float = eqx.field(static=True, default=DEFAULT_CABLE_DAMPING_S)
     """The cables' stiffness-proportional damping beta [s] in the passive phase (the paper gives no
-    value; 1e-5 is the scenes' default, chosen for the ALE level's step cost). a_max depends strongly
-    on it: the cable-counterweight mode rings with beta = 1e-5 (README, sensitivity table)."""
+    value; default the scenes' calibrated 6.3e-3 s, :data:`.passive.DEFAULT_CABLE_DAMPING_S`). a_max
+    depends strongly on it: the cable-counterweight mode rings with beta = 1e-5 s."""
     passive_air: bool = eqx.field(static=True, default=True)
     """``phase="full"``: the passive phase keeps the tracking phase's wind and the rocket's
     aerodynamics after capture (two_phase.py's default); False: still air after capture"""
@@ -391,6 +391,7 @@ def design_problem(
     phase: str | None = None,
     buffer: BufferDevice | None = None,
     layout: ArrestingLayout | None = None,
+    scene_options: dict | None = None,
     **settings,
 ) -> DesignProblem:
     """A design problem over ``n`` Halton cases of ``scenario``, deterministic for ``seed``
@@ -400,7 +401,9 @@ def design_problem(
     (Table 3 terminal-guidance states with Table 4 wind, delay and noise; two-phase landing at level
     rigid) or None (default): ``"full"`` when ``a_p`` is a design variable, else ``"passive"``
     (:func:`default_phase`). ``settings`` go to :class:`DesignProblem` (``t_end_s``, ``rtol``,
-    ``gradient``, ``gain_per_s``, ...)."""
+    ``gradient``, ``gain_per_s``, ...). ``scene_options``: further :func:`.passive.passive_landing_scene`
+    options of the host-built ale/full scenes (e.g. ``{"n_span_elements": 16, "n_fine": 8}``, a
+    cheaper mesh than the default)."""
     space = design_space(variables, bounds)
     check_count("n", n, 1, " (captures in the batch)")
     phase = default_phase(space.names) if phase is None else phase
@@ -423,15 +426,17 @@ def design_problem(
         settings.setdefault("gain_per_s", scenario_settings(scenario)["a_p"])
         settings.setdefault("capture_reference_m", capture_reference(layout if layout_given else None))
     if fidelity in LEVEL_DEFAULTS:  # the level's measured tolerances unless given
-        settings.setdefault("rtol", LEVEL_DEFAULTS[fidelity][1])
+        settings.setdefault("rtol", level_solver_settings(fidelity, settings.get("cable_damping_s"))[1])
         settings.setdefault("atol", settings["rtol"])
     buffer = BufferDevice() if buffer is None else buffer
     layout = ArrestingLayout() if layout is None else layout
     if phase == "passive" and fidelity != "rigid" and settings.get("scenes") is None:
         settings["scenes"] = host_built_scenes(
             fidelity, captures, layout, buffer, settings.get("t_end_s", DesignProblem.t_end_s),
-            settings.get("cable_damping_s", DEFAULT_CABLE_DAMPING_S),
+            settings.get("cable_damping_s", DEFAULT_CABLE_DAMPING_S), **(scene_options or {}),
         )  # fmt: skip
+    elif scene_options:
+        raise ValueError(f"scene_options apply to phase='passive' at fidelity 'ale' or 'full' only, got {fidelity!r}")
     return DesignProblem(
         space=space,
         captures=captures,
@@ -502,11 +507,14 @@ def design_scene(problem: DesignProblem, capture: CaptureState, x):
     )  # fmt: skip
 
 
-def host_built_scenes(fidelity, captures: CaptureState, layout, buffer, t_end_s, cable_damping_s):
-    """The passive scenes of a batch of concrete captures at level ale or full, stacked (n, ...)."""
+def host_built_scenes(fidelity, captures: CaptureState, layout, buffer, t_end_s, cable_damping_s, **scene_options):
+    """The passive scenes of a batch of concrete captures at level ale or full, stacked (n, ...);
+    ``scene_options`` go to :func:`.passive.passive_landing_scene` (the mesh, the contact law)."""
     n = int(np.shape(captures.x_m)[0])
     one = lambda j: jax.tree_util.tree_map(lambda v: v[j], captures)  # noqa: E731
     return stack_cases([
-        passive_landing_scene(fidelity, one(j), layout, buffer, t_end_s=t_end_s, cable_damping_s=cable_damping_s)
+        passive_landing_scene(
+            fidelity, one(j), layout, buffer, t_end_s=t_end_s, cable_damping_s=cable_damping_s, **scene_options
+        )
         for j in range(n)
     ])  # fmt: skip

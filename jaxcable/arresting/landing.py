@@ -24,6 +24,7 @@ from jaxcable.arresting.landing_rocket import rigid_landing_rocket
 from jaxcable.arresting.layout import ArrestingLayout, CaptureState
 from jaxcable.arresting.one_dof import OneDofParams, simulate_one_dof
 from jaxcable.arresting.passive import (
+    DEFAULT_CABLE_DAMPING_S,
     FIDELITY_LEVELS,
     G_CRITERIA,
     SAVE_SPACING_S,
@@ -91,13 +92,17 @@ STIFF_LEVEL_DEFAULTS = {
 def level_solver_settings(fidelity: str, cable_damping_s=None):
     """``(solver, rtol, atol, max_steps)`` of a level: ``STIFF_LEVEL_DEFAULTS`` for the ale and
     full levels with cable damping ``cable_damping_s >= STIFF_DAMPING_S[level]`` [s], else
-    ``LEVEL_DEFAULTS`` (``None`` or traced: the scenes' default damping)."""
+    ``LEVEL_DEFAULTS``. ``None`` is the scenes' default damping (:data:`.passive.DEFAULT_CABLE_DAMPING_S`,
+    calibrated: the W-method at ale and full). A traced damping (a design, a vmapped batch) takes
+    the W-method at ale and full too: it runs at any beta, where an explicit solver would stall
+    at its stability limit on stiffly damped cables."""
+    if fidelity not in STIFF_LEVEL_DEFAULTS:
+        return LEVEL_DEFAULTS[fidelity]
     if isinstance(cable_damping_s, jax.core.Tracer):
-        cable_damping_s = None  # traced (a design, a vmapped batch): the level's explicit default
-    if fidelity in STIFF_LEVEL_DEFAULTS and cable_damping_s is not None:
-        beta = np.asarray(cable_damping_s)
-        if beta.size and float(np.min(beta)) >= STIFF_DAMPING_S[fidelity]:
-            return STIFF_LEVEL_DEFAULTS[fidelity]
+        return STIFF_LEVEL_DEFAULTS[fidelity]
+    beta = np.asarray(DEFAULT_CABLE_DAMPING_S if cable_damping_s is None else cable_damping_s)
+    if beta.size and float(np.min(beta)) >= STIFF_DAMPING_S[fidelity]:
+        return STIFF_LEVEL_DEFAULTS[fidelity]
     return LEVEL_DEFAULTS[fidelity]
 
 

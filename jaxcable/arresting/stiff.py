@@ -196,9 +196,10 @@ class HookCoupling(eqx.Module):
     """``rows(state) -> the rocket's state`` within the scene's state."""
 
     @classmethod
-    def at(cls, cables, rocket, cable_state, rocket_state, rows):
-        """The coupling at one state, with the cables' kinematics and the contact pick computed."""
-        kin = cables.kinematics(cable_state)
+    def at(cls, cables, rocket, cable_state, rocket_state, rows, kin=None):
+        """The coupling at one state, with the cables' kinematics (``kin``, computed unless given)
+        and the contact pick computed."""
+        kin = cables.kinematics(cable_state) if kin is None else kin
         picked = cables.contact_pairs_picked(kin, _hook_points(rocket, rocket_state))
         return cls(cables, rocket, cable_state, rocket_state, kin, picked, rows=rows)
 

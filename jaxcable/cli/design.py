@@ -50,7 +50,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("--t-end", type=float, default=1.2, help="time simulated after capture [s] (default 1.2)")
     p.add_argument(
         "--cable-damping", type=cable_damping(), default=DEFAULT_CABLE_DAMPING_S,
-        help=f"cable stiffness-proportional damping beta [s] (default {DEFAULT_CABLE_DAMPING_S:g}; the paper gives none, a_max depends on it; 'calibrated': 6.3e-3 s, fitted to section III.F, docs/arresting_validation.md)",
+        help=f"cable stiffness-proportional damping beta [s] (default {DEFAULT_CABLE_DAMPING_S:g} = 'calibrated', fitted to the paper's section III.F, docs/arresting_validation.md; the paper prints none, a_max depends on it: 1e-5 leaves the cables' mode ringing)",
     )  # fmt: skip
     p.add_argument("--margin", type=float, default=0.0, help="fractional margin the penalties demand below each limit (default 0; 0.02: criteria < 98%% of their limits)")
     p.add_argument("--tail-criterion", choices=list(TAIL_CRITERIA), default="a_max", help="criterion whose CVaR is the tail risk (default a_max; worst: each case's largest normalised criterion, for designs that must meet every criterion)")

@@ -14,7 +14,11 @@ import argparse
 from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.landing import plot_landing, report_landing, run_landing
 from jaxcable.arresting.layout import CaptureState
-from jaxcable.arresting.passive import DEFAULT_CABLE_DAMPING_S
+from jaxcable.arresting.passive import (
+    DEFAULT_CABLE_DAMPING_S,
+    DEFAULT_FINE_ELEMENTS,
+    DEFAULT_SPAN_ELEMENTS,
+)
 from jaxcable.arresting.two_phase import plot_two_phase, report_two_phase, run_two_phase
 from jaxcable.cli.report import Report, cable_damping, positive
 from jaxcable.core.simulate import SOLVERS
@@ -67,9 +71,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("--brake-force", type=float, default=3.13e5, help="F_f, one brake [N] (Table 1: 3.13e5)")
     p.add_argument("--brake-profile", default=None, help="factors phi_0,...,phi_K-1 of the brake force along the counterweight rise, F_f(w) = F_f phi(w), at K equally spaced knots over [0, --brake-profile-travel] (e.g. a design of `jaxcable design --vars m_w,profile:8`); default: constant brake")
     p.add_argument("--brake-profile-travel", type=float, default=6.0, help="counterweight rise of the profile's last knot [m] (default 6)")
-    p.add_argument("--cable-damping", type=cable_damping(), default=DEFAULT_CABLE_DAMPING_S, help=f"cables' stiffness-proportional damping beta [s] (levels rigid, ale, full; default {DEFAULT_CABLE_DAMPING_S:g}: the paper gives none, a_max depends on it; 'calibrated': 6.3e-3 s, fitted to section III.F, docs/arresting_validation.md; ale/full: from 5e-4 s (ale) or 1e-3 s (full) on, the W-method rosw runs by default, its steps free of the explicit stability limit)")
-    p.add_argument("--span-elements", type=int, default=16, help="ALE elements per arresting span (levels ale, full; default 16)")
-    p.add_argument("--fine-elements", type=int, default=8, help="of those, equal fine elements over +-3 m around the hook (levels ale, full; default 8 = 0.75 m; 4 = 1.5 m halves the run time and moves sigma_max by 1-6%%: docs/arresting_design.md)")
+    p.add_argument("--cable-damping", type=cable_damping(), default=DEFAULT_CABLE_DAMPING_S, help=f"cables' stiffness-proportional damping beta [s] (levels rigid, ale, full; default {DEFAULT_CABLE_DAMPING_S:g} = 'calibrated', fitted to the paper's section III.F, docs/arresting_validation.md; the paper prints none, a_max depends on it: 1e-5 leaves the cables' mode ringing; ale/full: from 5e-4 s (ale) or 1e-3 s (full) on, the W-method rosw runs by default, its steps free of the explicit stability limit)")
+    p.add_argument("--span-elements", type=int, default=DEFAULT_SPAN_ELEMENTS, help=f"ALE elements per arresting span (levels ale, full; default {DEFAULT_SPAN_ELEMENTS}: a_max converged within 1.1%%, docs/arresting_validation.md)")
+    p.add_argument("--fine-elements", type=int, default=DEFAULT_FINE_ELEMENTS, help=f"of those, equal fine elements over +-3 m around the hook (levels ale, full; default {DEFAULT_FINE_ELEMENTS} = 0.375 m; --span-elements 16 --fine-elements 8 run about 1.5x faster and put a_max 6%% low)")
     p.add_argument("--t-end", type=positive("--t-end"), default=2.0, help="time simulated after capture [s] (default 2)")
     p.add_argument("--solver", choices=sorted(SOLVERS), default=None, help="diffrax solver (default per level)")
     p.add_argument("--rtol", type=positive("--rtol"), default=None, help="relative = absolute tolerance (default per level)")
@@ -164,7 +168,7 @@ def _passive(args: argparse.Namespace) -> Report:
 def _two_phase(args: argparse.Namespace) -> Report:
     if args.fidelity == "1dof":
         raise ValueError("--phase full needs --fidelity rigid, ale or full")
-    if (args.span_elements, args.fine_elements) != (16, 8):
+    if (args.span_elements, args.fine_elements) != (DEFAULT_SPAN_ELEMENTS, DEFAULT_FINE_ELEMENTS):
         raise ValueError("--span-elements/--fine-elements apply to --phase passive only")
     terminal = CaptureState(
         x_m=args.x, y_m=args.y, vx_m_s=args.vx, vy_m_s=args.vy,

@@ -60,7 +60,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("--solver", choices=sorted(SOLVERS), default=None, help="diffrax solver (default per level)")
     p.add_argument("--rtol", type=positive("--rtol"), default=None, help="relative = absolute tolerance (default per level)")
     p.add_argument("--max-steps", type=positive_int("--max-steps"), default=None, help="solver step budget per case (default per level)")
-    p.add_argument("--cable-damping", type=cable_damping(), default=DEFAULT_CABLE_DAMPING_S, help=f"cables' stiffness-proportional damping beta [s] (default {DEFAULT_CABLE_DAMPING_S:g}; the paper gives none, a_max depends on it; 'calibrated': 6.3e-3 s, fitted to section III.F, docs/arresting_validation.md)")
+    p.add_argument("--cable-damping", type=cable_damping(), default=DEFAULT_CABLE_DAMPING_S, help=f"cables' stiffness-proportional damping beta [s] (default {DEFAULT_CABLE_DAMPING_S:g} = 'calibrated', fitted to the paper's section III.F, docs/arresting_validation.md; the paper prints none, a_max depends on it: 1e-5 leaves the cables' mode ringing)")
     p.add_argument("--plot", metavar="PREFIX", help="write PREFIX_plane.png (Fig 21), PREFIX_histories.png (Figs 18-20) and, with --phase full, PREFIX_tracking.png (Figs 15-17)")
     p.add_argument("--plot-cases", type=positive_int("--plot-cases"), default=32, help="cases in the histories and tracking plots (default 32)")
     p.add_argument("--process-index", type=int, default=None, help="this host's index in a multi-host sweep (default: jax.process_index())")

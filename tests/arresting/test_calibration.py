@@ -97,15 +97,24 @@ def test_cli_takes_the_calibrated_value_by_name():
 
 
 def test_sweeps_at_the_calibrated_damping_run_the_w_method():
-    """A sweep's case function chooses the level's solver from its static damping: inside the
-    sweep's trace the scene's beta is a tracer, which ``level_solver_settings`` reads as the explicit
-    default (Bosh3 at the calibrated beta: ~2 million steps per 2 s case, a sweep that never ends)."""
+    """A sweep's case function chooses the level's solver from its static damping (inside the
+    sweep's trace the scene's beta is a tracer): the W-method at the calibrated beta, which is the
+    default (Bosh3 there: ~2 million steps per 2 s case, a sweep that never ends), explicit Bosh3
+    at a lightly damped 1e-5 s."""
+    from jaxcable.arresting.passive import (
+        DEFAULT_CABLE_DAMPING_S,
+        LIGHT_CABLE_DAMPING_S,
+    )
     from jaxcable.arresting.sweep import passive_case_fn, qmc_case_fn
 
     beta = C.CALIBRATED_CABLE_DAMPING_S
+    assert DEFAULT_CABLE_DAMPING_S == beta
     for level in ("ale", "full"):
         assert passive_case_fn(level, cable_damping_s=beta).solver == "rosw"
-        assert passive_case_fn(level).solver == "bosh3"  # the default damping: explicit
+        assert passive_case_fn(level).solver == "rosw"  # the default damping
+        assert passive_case_fn(level, cable_damping_s=LIGHT_CABLE_DAMPING_S).solver == "bosh3"
         two_phase = qmc_case_fn("I", phase="full", fidelity=level, cable_damping_s=beta)
         assert two_phase.passive_solver_settings()[level][0] == "rosw"
-        assert qmc_case_fn("I", phase="full", fidelity=level).passive_solver_settings()[level][0] == "bosh3"
+        assert qmc_case_fn("I", phase="full", fidelity=level).passive_solver_settings()[level][0] == "rosw"
+        light = qmc_case_fn("I", phase="full", fidelity=level, cable_damping_s=LIGHT_CABLE_DAMPING_S)
+        assert light.passive_solver_settings()[level][0] == "bosh3"

@@ -409,20 +409,21 @@ def test_cli_land_json():
     assert isinstance(data["criteria_met"], bool) and isinstance(data["solve_ok"], bool)
     assert data["filter_cfc_hz"] == 60.0
     assert data["criteria_met"] == all(data[f] for f in FLAGS)
-    # --cable-damping reaches the cables: beta = 1e-2 s damps the cable-counterweight ringing
-    # (docs/arresting_design.md: a_max 7.04 -> 4.28 g at the rigid level), and the budget, which
-    # books the damping's dissipation, still closes
-    damped = subprocess.run(
+    # --cable-damping reaches the cables: against the default (calibrated, 6.3e-3 s) a lightly damped
+    # 1e-5 s lets the cable-counterweight mode ring (docs/arresting_design.md: a_max 7.04 g at the
+    # rigid level against 4.28 g at 1e-2 s; the calibrated default gives 4.70 g), and the budget,
+    # which books the damping's dissipation, closes
+    light = subprocess.run(
         [sys.executable, "-m", "jaxcable.cli", "land", "--fidelity", "rigid", "--t-end", "1.0", "--json",
-         "--cable-damping", "1e-2"],
+         "--cable-damping", "1e-5"],
         capture_output=True,
         text=True,
         timeout=600,
     )  # fmt: skip
-    assert damped.returncode == 0, damped.stderr
-    damped = json.loads(damped.stdout)
-    assert damped["a_max_g"] < data["a_max_g"] - 1.0
-    assert damped["energy_budget_error"] < 1e-4
+    assert light.returncode == 0, light.stderr
+    light = json.loads(light.stdout)
+    assert light["a_max_g"] > data["a_max_g"] + 1.0
+    assert data["energy_budget_error"] < 1e-4 and light["energy_budget_error"] < 1e-4
     bad = subprocess.run(
         [sys.executable, "-m", "jaxcable.cli", "land", "--fidelity", "1dof", "--x", "3"],
         capture_output=True,

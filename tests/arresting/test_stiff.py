@@ -203,7 +203,12 @@ def test_level_solver_settings_follow_the_measured_crossover():
     )
     from jaxcable.studies import registry
 
-    assert level_solver_settings("ale") == LEVEL_DEFAULTS["ale"]
+    # the default damping (calibrated, 6.3e-3 s) and a traced one take the W-method at ale and full
+    assert level_solver_settings("ale") == STIFF_LEVEL_DEFAULTS["ale"]
+    assert level_solver_settings("full") == STIFF_LEVEL_DEFAULTS["full"]
+    assert level_solver_settings("rigid") == LEVEL_DEFAULTS["rigid"]
+    traced = jax.jit(lambda b: jnp.asarray(level_solver_settings("ale", b)[0] == "rosw"))(1e-5)
+    assert bool(traced)
     assert level_solver_settings("ale", 1e-5) == LEVEL_DEFAULTS["ale"]
     assert level_solver_settings("full", STIFF_DAMPING_S["full"]) == STIFF_LEVEL_DEFAULTS["full"]
     assert level_solver_settings("full", STIFF_DAMPING_S["ale"]) == LEVEL_DEFAULTS["full"]
