@@ -7,13 +7,15 @@ Two cases at the ``ale`` and ``full`` levels, at the calibrated cable damping
 * ``iva``: section IV.A's deviated case, scenario I: the tracking phase (rigid rocket, seed 0) to
   capture, then the passive phase from the captured state, ``--iva-t-end`` s.
 
-Variants, each against the level's default (16 span elements, 8 of them fine, the contact law of
+Variants, each against the level's default (the scenes' mesh, ``DEFAULT_SPAN_ELEMENTS`` = 32 span
+elements, ``DEFAULT_FINE_ELEMENTS`` = 16 of them fine; the contact law of
 ``passive.scene_contact_law``, the level's solver settings, 1 ms saves):
 
 ==============  ==============================================================================
-``mesh_x2``     every span element halved (32 span elements, 16 fine)
-``mesh_x4``     every span element quartered (64 span elements, 32 fine): the diagnostic of ``mesh_x2``
-``fine_x2``     the fine elements halved (24 span elements, 16 fine; the coarse ones unchanged)
+``mesh_half``   every span element doubled (16 span elements, 8 fine: the default before 32)
+``mesh_x2``     every span element halved (64 span elements, 32 fine)
+``mesh_x4``     every span element quartered (128 span elements, 64 fine): the diagnostic of ``mesh_x2``
+``fine_x2``     the fine elements halved (48 span elements, 32 fine; the coarse ones unchanged)
 ``contact_x2``  hook-cable contact stiffness k x 2 (the Hunt-Crossley factor c unchanged, so the
                 restitution of an impact is unchanged)
 ``contact_half`` k / 2
@@ -25,7 +27,8 @@ Variants, each against the level's default (16 span elements, 8 of them fine, th
 
 Goals: z_max within 1%, the criteria a_max and sigma_max (CFC 60) within 3% of the default.
 Writes ``convergence_landing.{json,md}`` after every run (a killed run resumes: rows already in the
-JSON are kept). Usage::
+JSON for the same beta and default mesh are kept). ``convergence_landing_mesh16.{json,md}`` is the
+record of the same study with 16 span elements (8 fine) as the default. Usage::
 
     python experiments/convergence_landing.py --levels ale               # ~25 min on 2 cores
     python experiments/convergence_landing.py --levels full --cases design
@@ -45,12 +48,14 @@ import numpy as np
 from jaxcable.core.config import enable_x64
 from jaxcable.arresting import calibration as C
 from jaxcable.arresting.landing import level_solver_settings, run_landing
+from jaxcable.arresting.passive import DEFAULT_FINE_ELEMENTS as N_FINE
+from jaxcable.arresting.passive import DEFAULT_SPAN_ELEMENTS as N_SPAN
 from jaxcable.arresting.passive import SAVE_SPACING_S, scene_contact_law
 
 STEM = "convergence_landing"
 KEYS = ("z_max_m", "a_max_g", "sigma_max_mpa")
 GOALS = {"z_max_m": 0.01, "a_max_g": 0.03, "sigma_max_mpa": 0.03}
-VARIANTS = ("default", "mesh_x2", "mesh_x4", "fine_x2", "contact_x2", "contact_half", "contact_c_x2", "contact_c_half", "rtol_10", "save_4")
+VARIANTS = ("default", "mesh_half", "mesh_x2", "mesh_x4", "fine_x2", "contact_x2", "contact_half", "contact_c_x2", "contact_c_half", "rtol_10", "save_4")
 
 
 def variant_kwargs(name, level, beta):
@@ -58,9 +63,10 @@ def variant_kwargs(name, level, beta):
     solver, rtol, _, steps = level_solver_settings(level, beta)
     return {
         "default": {},
-        "mesh_x2": dict(n_span_elements=32, n_fine=16),
-        "mesh_x4": dict(n_span_elements=64, n_fine=32),
-        "fine_x2": dict(n_span_elements=24, n_fine=16),
+        "mesh_half": {"n_span_elements": N_SPAN // 2, "n_fine": N_FINE // 2},
+        "mesh_x2": dict(n_span_elements=2 * N_SPAN, n_fine=2 * N_FINE),
+        "mesh_x4": dict(n_span_elements=4 * N_SPAN, n_fine=4 * N_FINE),
+        "fine_x2": dict(n_span_elements=N_SPAN + N_FINE, n_fine=2 * N_FINE),
         "contact_x2": dict(contact=eqx.tree_at(lambda c: c.k, law, 2.0 * law.k)),
         "contact_half": dict(contact=eqx.tree_at(lambda c: c.k, law, 0.5 * law.k)),
         "contact_c_x2": dict(contact=eqx.tree_at(lambda c: c.c, law, 2.0 * law.c)),
@@ -109,6 +115,7 @@ def write_md(data, path):
     L = ["# Convergence of the landing criteria", "", *_report.header(data), ""]
     L += [
         f"Cable damping beta = {data['beta_s']:.4g} s (calibrated, `experiments/calibrate_damping.py`). "
+        f"Default mesh: {data.get('default_mesh', [16, 8])[0]} span elements, {data.get('default_mesh', [16, 8])[1]} fine. "
         "Deviation of each variant from the level's default; goals: z_max 1%, a_max and sigma_max (CFC 60) 3%. "
         "Raw (unfiltered) maxima beside. A cell marked * misses its goal.",
         "",
@@ -149,10 +156,11 @@ def main():
     rows = []
     if old.exists():
         prev = json.loads(old.read_text())
-        if prev.get("beta_s") == beta:
+        if prev.get("beta_s") == beta and prev.get("default_mesh") == [N_SPAN, N_FINE]:
             rows = prev.get("rows", [])
     data = _report.start(precision=_report.precision())
     data["beta_s"] = beta
+    data["default_mesh"] = [N_SPAN, N_FINE]
     data["rows"] = rows
     done = {(r["case"], r["level"], r["variant"]) for r in rows}
     iva_kwargs = iva_passive_kwargs() if "iva" in args.cases else {}
