@@ -28,12 +28,20 @@ from jaxcable import simulate, status_message
 from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.layout import ArrestingLayout, CaptureState
 from jaxcable.arresting.one_dof import design_groups, stop_distance_bar, v0_bar
-from jaxcable.arresting.passive import passive_landing_scene, smooth_landing_outputs
-from jaxcable.arresting.two_phase import SCENARIO_SETTINGS, tracking_outputs, tracking_scene
-from jaxcable.throw.rocket import PointRocket
-from jaxcable.throw.forces import AbstractForce, Gravity
+from jaxcable.arresting.passive import (
+    LIGHT_CABLE_DAMPING_S,
+    passive_landing_scene,
+    smooth_landing_outputs,
+)
+from jaxcable.arresting.two_phase import (
+    SCENARIO_SETTINGS,
+    tracking_outputs,
+    tracking_scene,
+)
 from jaxcable.components.rope import ChainState, kinetic_energy, make_rope
 from jaxcable.core.scene import AbstractScene
+from jaxcable.throw.forces import AbstractForce, Gravity
+from jaxcable.throw.rocket import PointRocket
 from jaxcable.throw.scene import Launch, LineThrowingScene
 
 EVENT = int(diffrax.RESULTS.event_occurred._value)
@@ -110,7 +118,11 @@ def _check_brake_derivative(scene, fd_rel=1e-3):
 
 @pytest.fixture(scope="module")
 def design():
-    scene = _rigid_scene()
+    # the lightly damped cable (1e-5 s): its rebound leaves the cables slack for a long free-fall arc
+    # (the slack, snap and creep checks below read it). The scenes' calibrated damping (6.3e-3 s)
+    # shortens that arc to under 0.3 s and acts through the slack-snap transitions (measured: the
+    # fitted free-fall curvature 11.1 m/s^2 over the arc), which these checks do not model.
+    scene = _rigid_scene(cable_damping_s=LIGHT_CABLE_DAMPING_S)
     return scene, _rigid(scene)
 
 
@@ -318,7 +330,7 @@ def test_float32_matches_float64(design):
     z_max 1e-5, a_max 3e-4, sigma_max 1e-5 relative error; budget 3.5e-5)."""
     _, ref = design
     with jax.enable_x64(False):
-        scene = passive_landing_scene("rigid", t_end_s=T_PASSIVE)
+        scene = passive_landing_scene("rigid", t_end_s=T_PASSIVE, cable_damping_s=LIGHT_CABLE_DAMPING_S)  # as `design`
         dtypes = {str(x.dtype) for x in jax.tree_util.tree_leaves(scene) if hasattr(x, "dtype")}
         res = simulate(scene, T_PASSIVE, rtol=1e-5, atol=1e-5, max_steps=200_000)
         out = {k: np.asarray(v) for k, v in res.outputs.items()}
