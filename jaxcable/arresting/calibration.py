@@ -25,8 +25,8 @@ steel through inter-wire friction, and its loss factor falls as the tension grow
 Appl. Sci. 14(11) 4621, 2024; Musca et al., Symmetry 12(8) 1231, 2020, measure wire-rope
 hysteresis); the loss factors reported for tensioned ropes are of order 0.01-0.1. We take
 ``zeta_1 <= ZETA_MAX = 0.10`` (loss factor 0.2, the generous end) as the upper bound and
-``BETA_MIN_S`` = 1e-5 s (the explicit levels' default, ``zeta_1`` = 2e-4: practically undamped) as the
-lower one. The bound is an engineering judgement, not a measured property of Table 1's cable:
+``BETA_MIN_S`` = 1e-5 s (the lightly damped cable, the default before the calibration; ``zeta_1`` =
+2e-4: practically undamped) as the lower one. The bound is an engineering judgement, not a measured property of Table 1's cable:
 the fit reports where it ends relative to it, and the sensitivities tell what another bound gives.
 
 Note also that the paper integrates its model with an implicit (BDF-type) scheme, whose numerical
@@ -63,7 +63,7 @@ __all__ = [
 ]
 
 BETA_MIN_S = 1e-5
-"""Lower bound of the fitted beta [s] (the explicit levels' default: the mode practically undamped)."""
+"""Lower bound of the fitted beta [s] (the lightly damped cable: the mode practically undamped)."""
 
 ZETA_MAX = 0.10
 """Upper bound of the damping ratio of the rocket-cable-counterweight mode (module docstring)."""
