@@ -13,7 +13,11 @@ import equinox as eqx
 import pytest
 
 from jaxcable.arresting.landing import run_landing
-from jaxcable.arresting.passive import DEFAULT_FINE_ELEMENTS, DEFAULT_SPAN_ELEMENTS, scene_contact_law
+from jaxcable.arresting.passive import (
+    DEFAULT_FINE_ELEMENTS,
+    DEFAULT_SPAN_ELEMENTS,
+    scene_contact_law,
+)
 
 T_END = 1.0  # s: the stroke (the 1-DOF stop is at 0.77 s)
 GOALS = {"z_max_m": 0.01, "a_max_g": 0.03, "sigma_max_mpa": 0.03}
