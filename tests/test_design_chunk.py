@@ -16,7 +16,10 @@ from jaxcable.studies.batching import AUTO_CHUNK, chunk_size
 SETTINGS = dict(n=5, t_end_s=0.6, rtol=1e-8, atol=1e-8)
 
 
+@pytest.mark.slow
 def test_chunked_batch_equals_the_whole_batch():
+    # slow tier: its three compiled gradient programs took 68 s of the default tier's 18.6 min on
+    # 2 cores (CI's limit: 20 min); the chunk sizes and the refusals stay in the default tier
     whole = design_problem("m_w,F_f", chunk=None, **SETTINGS)
     chunked = dataclasses.replace(whole, chunk=2)
     u = whole.space.to_unconstrained(paper_start(whole))
