@@ -43,6 +43,7 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
+from jaxcable.arresting.passive import CALIBRATED_CABLE_DAMPING_S
 from jaxcable.core.config import enable_x64
 from jaxcable.core.simulate import simulate
 from jaxcable.core.validation import check_choice, check_positive
@@ -71,13 +72,6 @@ ZETA_MAX = 0.10
 OMEGA_1_RAD_S = 31.6
 """Circular frequency of the rocket-cable-counterweight mode on the design case [rad/s], measured
 (``experiments/calibrate_damping.py`` writes the measurement; rounded)."""
-
-CALIBRATED_CABLE_DAMPING_S = 6.3e-3
-"""The fitted beta [s]: the fit of ``experiments/calibrate_damping.py`` (rigid level, 20 Adam
-iterations from 1e-3 s) ends at the upper bound ``2 ZETA_MAX / OMEGA_1_RAD_S`` = 6.33e-3 s, because
-the objective falls monotonically with beta over the whole plausible range (the section III.F
-histories ask for more damping than a steel rope plausibly has; results and sensitivities in
-``experiments/results/calibrate_damping.md`` and ``docs/arresting_validation.md``). Rounded."""
 
 CHANNELS = ("drop_m", "acceleration_g", "stress_mpa", "counterweight_rise_m")
 """The four histories of the paper's Figs 11b-e, in the objective's order."""

@@ -430,13 +430,17 @@ def design_problem(
         settings.setdefault("atol", settings["rtol"])
     buffer = BufferDevice() if buffer is None else buffer
     layout = ArrestingLayout() if layout is None else layout
-    if phase == "passive" and fidelity != "rigid" and settings.get("scenes") is None:
+    host_built = phase == "passive" and fidelity != "rigid" and settings.get("scenes") is None
+    if scene_options and not host_built:
+        raise ValueError(
+            "scene_options apply to the scenes design_problem builds (phase='passive', fidelity 'ale' or "
+            f"'full', no scenes given); got phase={phase!r}, fidelity={fidelity!r}"
+        )
+    if host_built:
         settings["scenes"] = host_built_scenes(
             fidelity, captures, layout, buffer, settings.get("t_end_s", DesignProblem.t_end_s),
             settings.get("cable_damping_s", DEFAULT_CABLE_DAMPING_S), **(scene_options or {}),
         )  # fmt: skip
-    elif scene_options:
-        raise ValueError(f"scene_options apply to phase='passive' at fidelity 'ale' or 'full' only, got {fidelity!r}")
     return DesignProblem(
         space=space,
         captures=captures,

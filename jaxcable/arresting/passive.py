@@ -93,7 +93,6 @@ from jaxcable.core.validation import (
 )
 from jaxcable.core.scene import AbstractScene
 from jaxcable.arresting.buffer import BufferDevice
-from jaxcable.arresting.calibration import CALIBRATED_CABLE_DAMPING_S
 from jaxcable.arresting.cable_sets import AleCables, HookPoints, MasslessCables, throat_weights
 from jaxcable.arresting.landing_rocket import flexible_landing_rocket, rigid_landing_rocket
 from jaxcable.arresting.layout import ArrestingLayout, CaptureState, check_hooks_inside_frame
@@ -103,6 +102,7 @@ from jaxcable.components.multibody import point_kinematics
 from jaxcable.components.wind import AeroCoefficients, WindField, rocket_aero_loads
 
 __all__ = [
+    "CALIBRATED_CABLE_DAMPING_S",
     "CRITERIA_CFC_HZ",
     "DEFAULT_CABLE_DAMPING_S",
     "DEFAULT_FINE_ELEMENTS",
@@ -623,6 +623,15 @@ def smooth_landing_outputs(ts, probes, widths: SmoothingWidths = SmoothingWidths
         sigma_max_mpa=soft_max(hist["stress_max_mpa"], widths.sigma_mpa, finite),
     )
 
+
+CALIBRATED_CABLE_DAMPING_S = 6.3e-3
+"""The cables' Rayleigh beta [s] fitted to the paper's section III.F (:mod:`.calibration`, which
+exports it too): the fit of ``experiments/calibrate_damping.py`` (rigid level, 20 Adam iterations
+from 1e-3 s) ends at the upper bound ``2 ZETA_MAX / OMEGA_1_RAD_S`` = 6.33e-3 s, because the
+objective falls monotonically with beta over the whole plausible range (the section III.F
+histories ask for more damping than a steel rope plausibly has; results and sensitivities in
+``experiments/results/calibrate_damping.md`` and ``docs/arresting_validation.md``). Rounded.
+Defined here, beside the defaults that use it, so that the scenes need not import the calibration."""
 
 DEFAULT_CABLE_DAMPING_S = CALIBRATED_CABLE_DAMPING_S
 """The cables' stiffness-proportional damping beta [s] of every scene, sweep and design unless
