@@ -46,6 +46,7 @@ from jaxcable.arresting.design_setup import design_buffer
 from jaxcable.arresting.landing import run_landing
 from jaxcable.arresting.layout import CaptureState
 from jaxcable.arresting.passive import DEFAULT_CABLE_DAMPING_S
+from jaxcable.studies.optimise import beats_kept
 
 STEM = "design_full_check"
 KEYS = ("z_max_m", "a_max_g", "sigma_max_mpa")
@@ -120,10 +121,7 @@ def main(argv=None):
         success = record(aux)[1]
         if i == 0:
             kept["start"] = aux
-        if "best" not in kept or (success, -j) > (
-            kept["best"]["success"],
-            -kept["best"]["j"],
-        ):
+        if beats_kept(kept.get("best"), success, float(j)):
             kept["best"] = {
                 "j": float(j),
                 "aux": aux,

@@ -23,7 +23,7 @@ from jaxcable.cli.report import Report, cable_damping, emit
 from jaxcable.core.config import enable_x64
 from jaxcable.core.validation import check_choice
 from jaxcable.studies import registry
-from jaxcable.studies.optimise import GRADIENT_MODES
+from jaxcable.studies.optimise import GRADIENT_MODES, beats_kept
 from jaxcable.throw.design import ThrowLimits
 
 HELP = "gradient-based design optimisation (see jaxcable design --help)"
@@ -171,7 +171,7 @@ def _run_arresting(entry, args) -> Report:
         success = record(aux)[1]
         if i == 0:
             kept["start"] = aux
-        if "best" not in kept or (success, -j) > (kept["best"]["success"], -kept["best"]["j"]):
+        if beats_kept(kept.get("best"), success, j):
             kept["best"] = dict(j=j, aux=aux, success=success, step=i)
         if not args.json:
             _echo(f"  step {i:3d}  J = {j:.5f}  " + ", ".join(f"{k} = {v:.6g}" for k, v in problem.space.as_dict(x).items()))

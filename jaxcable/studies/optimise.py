@@ -41,6 +41,7 @@ __all__ = [
     "DesignHistory",
     "DesignSpace",
     "HistoryRows",
+    "beats_kept",
     "check_alpha",
     "check_count",
     "cvar",
@@ -55,6 +56,14 @@ __all__ = [
 GRADIENT_MODES = ("forward", "reverse")
 """``forward``: ``jax.jacfwd`` with ``diffrax.ForwardMode`` (the k tangents carried along one
 solve); ``reverse``: ``jax.grad`` with ``diffrax.RecursiveCheckpointAdjoint``."""
+
+
+def beats_kept(kept, success, objective) -> bool:
+    """Whether an evaluation with success rate ``success`` and objective ``objective`` replaces the
+    design ``kept`` so far (a dict with ``"success"`` and ``"j"``, or None): the highest success rate
+    on the batch, then the lowest objective among those (the objective alone may prefer a design
+    that trades a small violation for lower mean criteria)."""
+    return kept is None or (success, -objective) > (kept["success"], -kept["j"])
 
 
 def check_count(name, value, minimum, what=""):
