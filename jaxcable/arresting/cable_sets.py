@@ -31,12 +31,20 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxcable.core import banded
 from jaxcable.components.ale import AleCable, axial_tension_factor, strain_energy_density
 from jaxcable.components.contact import _capsule_contact
 from jaxcable.components.wind import cable_drag_element_forces
 from jaxcable.arresting.buffer import BufferDevice
-from jaxcable.arresting.cables import CableCoords, CableRoute, CableState, CableSubsystem, graded_fractions
+from jaxcable.arresting.cables import (
+    CableCoords,
+    CableRoute,
+    CableState,
+    CableSubsystem,
+    _material_force_rows,
+    element_chain,
+    element_rows,
+    graded_fractions,
+)
 from jaxcable.arresting.layout import HOOK_OF_CABLE, ArrestingLayout, span_endpoints
 
 __all__ = ["AleCables", "HookPoints", "MasslessCables", "throat_weights"]
@@ -395,7 +403,7 @@ class AleCables(eqx.Module):
         )  # fmt: skip
         # a float count: diffrax fills the saved samples after an early end with inf
         touching = jnp.sum(jnp.where(jax.lax.stop_gradient(penetration) > 0.0, 1.0, 0.0))
-        f_hook = jnp.stack([f_caps[:, 0, 0], f_caps[:, 0, 1] + f_caps[:, 1, 0], f_caps[:, 1, 1]], axis=1)
+        f_hook = _hook_point_forces(f_caps)
         # contact power on both sides (for the energy budget): sum F.v at the application points
         power = jnp.sum(span_forces[:, :, 0] * a1) + jnp.sum(span_forces[:, :, 1] * a2) + jnp.sum(f_hook * V)
         return span_forces, f_hook, normal, power, touching
@@ -411,10 +419,18 @@ class AleCables(eqx.Module):
         geometry) at ``state``."""
         return jax.vmap(lambda sub, q, qdot: sub.kinematics(q, qdot))(self.subsystems, state.q, state.qdot)
 
-    def contact_on_hooks(self, kin, hooks: HookPoints):
+    def contact_on_hooks(self, kin, hooks: HookPoints, picked=None):
         """The contact forces on the hooks' points (4 hooks, 3 points, 3) [N] with the cables at
-        ``kin`` (:meth:`kinematics`): what :meth:`respond` returns as ``f_hook``."""
-        return self._contact(kin, hooks)[1]
+        ``kin`` (:meth:`kinematics`): what :meth:`respond` returns as ``f_hook``. With ``picked``
+        (:meth:`contact_pairs_picked` at the same state) from those pairs only: the same
+        derivative (the one :meth:`respond`'s JVP takes) without every pair's values and the pick."""
+        if picked is None:
+            return self._contact(kin, hooks)[1]
+        caps_p, caps_v = _capsules(hooks)
+        f_caps = _picked_pairs(
+            picked, self.contact, self.hook_radius_m, self.cable_radius_m, caps_p, caps_v, *self._span_ends(kin)
+        )[1]  # fmt: skip
+        return _hook_point_forces(f_caps)
 
     def contact_pairs_picked(self, kin, hooks: HookPoints):
         """Flat indices of the pairs whose contact derivative is taken (the ``contact_tangent_pairs``
@@ -428,6 +444,37 @@ class AleCables(eqx.Module):
         if m is None or m >= penetration.shape[0]:
             return jnp.arange(penetration.shape[0])
         return _deepest_pairs(penetration, m)
+
+    def _contact_element_jacobians(self, kin, hooks: HookPoints, picked):
+        """The hook-cable contact's share of :meth:`stiff_blocks`: the Jacobians (4 cables, n_span,
+        8, 8) of each span element's contact rows (:func:`_material_force_rows` of the pair forces
+        on its ends) with respect to its ends' coordinates and rates, the hooks held fixed, summed
+        over the pairs ``picked`` (each pair's through its own element: 16 tangents per pair)."""
+        lo, hi = self.span_slice
+        n_span = hi - lo
+        cap = (picked // n_span) % 8  # flat pair index = ((cable * 4 + hook) * 2 + capsule) * n_span + element
+        el = (picked // (8 * n_span)) * n_span + picked % n_span  # cable * n_span + element
+        caps_p, caps_v = _capsules(hooks)
+        cp, cv = caps_p.reshape(8, 2, 3), caps_v.reshape(8, 2, 3)
+
+        def ends(a):
+            return a[:, lo : hi + 1]
+
+        r, s, v, sd = ends(kin.r), ends(kin.s), ends(kin.v), ends(kin.sd)
+        Z = jnp.concatenate([r[:, :-1], s[:, :-1, None], r[:, 1:], s[:, 1:, None]], axis=-1).reshape(4 * n_span, 8)
+        Zd = jnp.concatenate([v[:, :-1], sd[:, :-1, None], v[:, 1:], sd[:, 1:, None]], axis=-1).reshape(4 * n_span, 8)
+
+        def pair_rows(z, zd, h0, h1, hv0, hv1):
+            k = element_chain(z, zd)
+            on_cable = _pair_law(
+                self.contact, self.hook_radius_m, self.cable_radius_m, h0, h1, hv0, hv1, k.r[0], k.r[1], k.a1[0], k.a2[0]
+            )[0]  # fmt: skip
+            e_r, e_s = _material_force_rows(k.tangent, on_cable[None])
+            return element_rows(e_r[0], e_s[0])
+
+        J_z, J_zd = jax.vmap(jax.jacfwd(pair_rows, argnums=(0, 1)))(Z[el], Zd[el], cp[cap, 0], cp[cap, 1], cv[cap, 0], cv[cap, 1])
+        to_el = (el[:, None] == jnp.arange(4 * n_span)[None, :]).astype(J_z.dtype)  # (m, 4 n_span): no scatter
+        return tuple(jnp.einsum("me,mij->eij", to_el, J).reshape(4, n_span, 8, 8) for J in (J_z, J_zd))
 
     def contact_forces_jvp(self, state: CableState, kin, hooks: HookPoints, d_hooks: HookPoints, picked):
         """The change of :meth:`cable_forces` ``(dQ_r (4, n_int, 3), dQ_slow (4, n_slow))`` [N] when
@@ -500,62 +547,45 @@ class AleCables(eqx.Module):
 
         return jax.vmap(one)(self.subsystems, state.q, state.qdot, kin, span_forces)
 
-    def stiff_blocks(self, state: CableState, hooks: HookPoints, t=0.0):
+    def stiff_blocks(self, state: CableState, hooks: HookPoints, t=0.0, kin=None, picked=None):
         """The cables' linearisation for :mod:`jaxcable.core.rosenbrock` (hooks held fixed), as the
         blocks of ``K = dQ/dq`` and ``C = dQ/dq_dot`` of :meth:`cable_forces` and of the mass:
 
-        * internal nodes: block-tridiagonal ``(lower, diag, upper)`` (4, n_int, 3, 3) from 18
-          coloured JVPs (positions and velocities);
-        * the slow coordinates' columns (4, n_int, 3, n_slow) and block (4, n_slow, n_slow) from
-          ``2 n_slow`` JVPs; their rows are taken as the columns' transpose (exact for the elastic
-          and Rayleigh terms, which derive from a potential and a dissipation function; a
-          W-method keeps its order with any approximation);
+        * internal nodes: block-tridiagonal ``(lower, diag, upper)`` (4, n_int, 3, 3);
+        * the slow coordinates' columns (4, n_int, 3, n_slow) and block (4, n_slow, n_slow); their
+          rows are taken as the columns' transpose (exact for the elastic and Rayleigh terms, which
+          derive from a potential and a dissipation function; a W-method keeps its order with any
+          approximation);
         * mass: the internal-node tridiagonal (4, n_int) x3, ``M_rs``, ``M_ss``.
 
-        All the JVPs run as one vectorised call. Returns a dict of these arrays (the slots of
-        motor-driven pulleys are ``self.subsystems.route.active_slots``)."""
-        r, v = state.q.r, state.qdot.r
-        n_p = state.q.s.shape[-1]
+        Element by element: every force in :meth:`cable_forces` acts on one element's two ends and
+        depends on those ends only, so each element's 8 x 8 Jacobians are formed alone and the
+        blocks summed from them over the affine map to the generalised coordinates
+        (:meth:`CableSubsystem.assemble_stiff_blocks`): the element terms' stiff part in closed
+        form (:meth:`CableSubsystem.element_row_jacobians`: elasticity, Rayleigh damping, weight;
+        not the moving material's inertia terms nor the air's drag), the contact from the pairs
+        its JVP picks (:meth:`contact_pairs_picked`), 16 tangents through each pair's element.
+        Before, 28 coloured JVPs of the whole :meth:`cable_forces` cost 2.3 ms per linearisation
+        at the full level on the default mesh, about ten evaluations of the vector field; now
+        0.6 ms (``docs/stiff_integrator.md``). ``kin``, ``picked``: the cables' kinematics and the
+        contact pick at ``state``, if computed.
+        Returns a dict of these arrays (the slots of motor-driven pulleys are
+        ``self.subsystems.route.active_slots``)."""
+        kin = self.kinematics(state) if kin is None else kin
+        picked = self.contact_pairs_picked(kin, hooks) if picked is None else picked
+        lo, hi = self.span_slice
+        J_z, J_zd = jax.vmap(lambda sub, k: sub.element_row_jacobians(k))(self.subsystems, kin)  # (4, n_el, 8, 8)
+        C_z, C_zd = self._contact_element_jacobians(kin, hooks, picked)  # (4, n_span, 8, 8) each
+        J_z = J_z.at[:, lo:hi].add(C_z)
+        J_zd = J_zd.at[:, lo:hi].add(C_zd)
+        (K_rr, C_rr), (K_rz, C_rz), (K_zz, C_zz) = jax.vmap(lambda sub, q, qd, a, b: sub.assemble_stiff_blocks(q, qd, a, b))(
+            self.subsystems, state.q, state.qdot, J_z, J_zd
+        )  # fmt: skip
 
-        def forces(r_, s_, u_, v_, sd_, ud_):
-            q = CableCoords(r=r_, s=s_, u=u_)
-            qdot = CableCoords(r=v_, s=sd_, u=ud_)
-            return self.cable_forces(eqx.tree_at(lambda st: (st.q, st.qdot), state, (q, qdot)), hooks, t)
-
-        primals = (r, state.q.s, state.q.u, v, state.qdot.s, state.qdot.u)
-        T = banded.colour_tangents(r.shape, r.dtype)  # (9, 4, n, 3)
-        n_slow = n_p + 1
-        E = jnp.eye(n_slow, dtype=r.dtype)
-        zr = jnp.zeros((2 * n_slow,) + r.shape, r.dtype)
-        zs = jnp.zeros((18,) + state.q.s.shape, r.dtype)
-        zu = jnp.zeros((18,) + state.q.u.shape, r.dtype)
-        slow_s = jnp.broadcast_to(E[:, None, :n_p], (n_slow,) + state.q.s.shape)
-        slow_u = jnp.broadcast_to(E[:, None, n_p], (n_slow,) + state.q.u.shape)
-        zs_slow = jnp.zeros_like(slow_s)
-        zu_slow = jnp.zeros_like(slow_u)
-        ZT = jnp.zeros_like(T)
-        tangents = (
-            jnp.concatenate([T, ZT, zr]),
-            jnp.concatenate([zs, slow_s, zs_slow]),
-            jnp.concatenate([zu, slow_u, zu_slow]),
-            jnp.concatenate([ZT, T, zr]),
-            jnp.concatenate([zs, zs_slow, slow_s]),
-            jnp.concatenate([zu, zu_slow, slow_u]),
-        )
-        _, (P_r, P_z) = jax.vmap(lambda *tan: jax.jvp(forces, primals, tan))(*tangents)
-        K_rr = banded.tridiagonal_blocks(P_r[:9])
-        C_rr = banded.tridiagonal_blocks(P_r[9:18])
-        # slow columns: P_r (n_slow, 4, n, 3) -> (4, n, 3, n_slow); P_z (n_slow, 4, n_slow) -> (4, n_slow, n_slow)
-        K_rz = jnp.moveaxis(P_r[18 : 18 + n_slow], 0, -1)
-        C_rz = jnp.moveaxis(P_r[18 + n_slow :], 0, -1)
-        K_zz = jnp.moveaxis(P_z[18 : 18 + n_slow], 0, -1)
-        C_zz = jnp.moveaxis(P_z[18 + n_slow :], 0, -1)
-
-        def masses(sub, q, qdot):
-            kin = sub.kinematics(q, qdot)
+        def masses(sub, kin):
             return sub.internal_mass_blocks(kin), sub.slow_mass_blocks(kin)
 
-        M_rr, (M_rs, M_ss) = jax.vmap(masses)(self.subsystems, state.q, state.qdot)
+        M_rr, (M_rs, M_ss) = jax.vmap(masses)(self.subsystems, kin)
         return dict(K_rr=K_rr, C_rr=C_rr, K_rz=K_rz, C_rz=C_rz, K_zz=K_zz, C_zz=C_zz, M_rr=M_rr, M_rs=M_rs, M_ss=M_ss)
 
     def energies(self, state: CableState, hooks: HookPoints):
@@ -580,6 +610,12 @@ class AleCables(eqx.Module):
 # ------------------------------------------------------------------------------------------------
 # Hook-cable contact of all pairs, with a sparse derivative
 # ------------------------------------------------------------------------------------------------
+
+
+def _hook_point_forces(f_caps):
+    """The capsules' end forces (4 hooks, 2 capsules, 2 ends, 3) on the hooks' three points (hinge,
+    tip, barb end; the tip shared by both capsules): (4, 3, 3) [N]."""
+    return jnp.stack([f_caps[:, 0, 0], f_caps[:, 0, 1] + f_caps[:, 1, 0], f_caps[:, 1, 1]], axis=1)
 
 
 def _capsules(hooks: HookPoints):

@@ -338,6 +338,43 @@ class CableKinematics(eqx.Module):
     """(n_el, 3) same at the second end [m/s]."""
 
 
+def chain_kinematics(r, s, v, sd, W=None):
+    """:class:`CableKinematics` of a chain of nodes: positions ``r`` (N, 3) [m], material
+    coordinates ``s`` (N,) [m], velocities ``v`` (N, 3) [m/s], material rates ``sd`` (N,) [m/s]
+    (``W``: the interpolation weights, carried along). Used for a whole cable
+    (:meth:`CableSubsystem.kinematics`) and for one element at a time (a two-node chain: the
+    element-local Jacobians of :meth:`CableSubsystem.element_jacobians`)."""
+    length = s[1:] - s[:-1]
+    tangent = (r[1:] - r[:-1]) / length[:, None]
+    tt = jnp.sum(tangent * tangent, axis=1)
+    d_v = v[1:] - v[:-1]
+    d_sd = sd[1:] - sd[:-1]
+    strain_rate = (jnp.sum(tangent * d_v, axis=1) - tt * d_sd) / length
+    return CableKinematics(
+        r=r, s=s, v=v, sd=sd, W=W, length=length, tangent=tangent, tangent_sq=tt,
+        strain=0.5 * (tt - 1.0), strain_rate=strain_rate,
+        a1=v[:-1] - tangent * sd[:-1, None], a2=v[1:] - tangent * sd[1:, None],
+    )  # fmt: skip
+
+
+def element_chain(z, zd):
+    """One element as a two-node chain's :func:`chain_kinematics`, from its ends' coordinates
+    ``z = (r1, s1, r2, s2)`` (8,) and rates ``zd = (v1, sd1, v2, sd2)`` (8,)."""
+    r = jnp.stack([z[0:3], z[4:7]])
+    v = jnp.stack([zd[0:3], zd[4:7]])
+    return chain_kinematics(r, jnp.stack([z[3], z[7]]), v, jnp.stack([zd[3], zd[7]]))
+
+
+def element_rows(f_r, f_s):
+    """An element's rows ``f_r`` (2, 3), ``f_s`` (2,) as ``(f_r1, f_s1, f_r2, f_s2)`` (8,)."""
+    return jnp.concatenate([f_r[0], f_s[:1], f_r[1], f_s[1:]])
+
+
+def _mm(A, B):
+    """``A @ B`` over leading axes as a multiply-sum (small blocks; XLA fuses it)."""
+    return jnp.sum(A[..., :, :, None] * B[..., None, :, :], axis=-2)
+
+
 def _material_force_rows(tangent, element_forces):
     """Point forces on the material at element ends (n_el, 2, 3) -> their ``(r, s)`` rows: the
     power ``F . (v - r' sdot)`` gives ``F`` on ``r`` and ``-r'.F`` on ``s``."""
@@ -457,17 +494,7 @@ class CableSubsystem(eqx.Module):
         r = route._node_positions(route.boundary_r(q), q.r)
         s = _matvec(W, route.boundary_s(q))
         v, sd = route.node_velocities(qdot)
-        length = s[1:] - s[:-1]
-        tangent = (r[1:] - r[:-1]) / length[:, None]
-        tt = jnp.sum(tangent * tangent, axis=1)
-        d_v = v[1:] - v[:-1]
-        d_sd = sd[1:] - sd[:-1]
-        strain_rate = (jnp.sum(tangent * d_v, axis=1) - tt * d_sd) / length
-        return CableKinematics(
-            r=r, s=s, v=v, sd=sd, W=W, length=length, tangent=tangent, tangent_sq=tt,
-            strain=0.5 * (tt - 1.0), strain_rate=strain_rate,
-            a1=v[:-1] - tangent * sd[:-1, None], a2=v[1:] - tangent * sd[1:, None],
-        )
+        return chain_kinematics(r, s, v, sd, W)
 
     def element_tensions(self, kin: "CableKinematics"):
         """:meth:`tensions` from precomputed kinematics [N], (n_elements,)."""
@@ -540,6 +567,106 @@ class CableSubsystem(eqx.Module):
         g = -self.gravity[2]
         Q_u = Q_u - b.counterweight_mass_kg * g * b.transfer_rate + b.generalized_force(qdot.u, q.u)
         return Q_r, jnp.concatenate([Q_s, Q_u[None]])
+
+    def element_row_jacobians(self, kin: CableKinematics):
+        """Each element's Jacobians of its rows of Lagrange's equations in nodal coordinates,
+        ``f_e = (f_r1, f_s1, f_r2, f_s2)`` (8,) [N], with respect to its ends' coordinates ``z_e =
+        (r1, s1, r2, s2)`` and rates ``zdot_e = (v1, sd1, v2, sd2)``: ``(J_z, J_zdot)``, each
+        (n_el, 8, 8), in closed form, of the stiff terms of :meth:`_element_forces`: the axial
+        force ``N = EA (T(eps) + beta eps_dot)`` (elasticity and Rayleigh damping, on ``f_r = +-N
+        t`` and ``f_s1 = -N |t|^2 + EA psi = -f_s2``) and the weight. With ``G = dt/dz_e = [-I, t,
+        I, -t] / L`` and ``t^T G = d eps / dz_e = d eps_dot / dzdot_e``:
+
+            dN/dz = EA (T'(eps) t^T G + beta ((dv - 2 dsd t)^T G - eps_dot dL/dz) / L),
+            dN/dzdot = EA beta t^T G,   d(N t)/dz = t dN/dz + N G.
+
+        Left out (a W-method keeps its order with any ``J``): the inertia terms of the moving
+        material (``m_dot``, ``g`` of :meth:`_element_forces`: of order ``rhoA sdot`` and ``rhoA
+        sdot^2 / L``, 1e-4 of the damping and 1e-4 of the stiffness at 30 m/s of material flow on
+        the default mesh; ``tests/arresting/test_stiff.py`` measures it), and the air's drag on
+        the span. Before, the exact Jacobians came from 28 coloured JVPs of the whole
+        :meth:`generalised_forces` (2.3 ms per linearisation at the full level on the default
+        mesh, about ten evaluations of the vector field), then from 16 tangents through each
+        element (0.9 ms): the closed form costs a few wide elementwise operations."""
+        EA, beta, rhoA = self.cable.EA_N, self.cable.damping_s, self.cable.rhoA_kg_per_m
+        L, t, tt = kin.length, kin.tangent, kin.tangent_sq
+        eps, eps_dot = kin.strain, kin.strain_rate
+        dtype = t.dtype
+        n = L.shape[0]
+        inv_L = (1.0 / L)[:, None, None]
+        I3 = jnp.broadcast_to(jnp.eye(3, dtype=dtype), (n, 3, 3))
+        G = inv_L * jnp.concatenate([-I3, t[:, :, None], I3, -t[:, :, None]], axis=2)  # (n, 3, 8)
+        de = jnp.sum(t[:, :, None] * G, axis=1)  # (n, 8) d eps / dz = d eps_dot / dzdot
+        dv = kin.v[1:] - kin.v[:-1]
+        dsd = kin.sd[1:] - kin.sd[:-1]
+        dL = jnp.asarray([0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 1.0], dtype)
+        w = dv - 2.0 * dsd[:, None] * t
+        d_eps_dot = (jnp.sum(w[:, :, None] * G, axis=1) - eps_dot[:, None] * dL[None, :]) / L[:, None]
+        T, dT = jax.jvp(lambda e: axial_tension_factor(e, self.cable.slack_width), (eps,), (jnp.ones_like(eps),))
+        N = EA * (T + beta * eps_dot)
+        dN_z = EA * (dT[:, None] * de + beta * d_eps_dot)  # (n, 8)
+        dN_zd = (EA * beta) * de
+        g = self.gravity
+        # z rows: (f_r1, f_s1, f_r2, f_s2) with f_r1 = N t + w_g, f_r2 = -N t + w_g, w_g = rhoA L g / 2
+        dNt_z = t[:, :, None] * dN_z[:, None, :] + N[:, None, None] * G  # (n, 3, 8)
+        weight_z = (0.5 * rhoA) * g[None, :, None] * dL[None, None, :]
+        ds1_z = -tt[:, None] * dN_z - 2.0 * N[:, None] * de + EA * T[:, None] * de
+        gs = jnp.concatenate([g, jnp.zeros(1, dtype), g, jnp.zeros(1, dtype)])  # f_s1's weight term
+        ds1_z = ds1_z - (0.5 * rhoA) * gs[None, :]
+        J_z = jnp.concatenate([dNt_z + weight_z, ds1_z[:, None], -dNt_z + weight_z, -ds1_z[:, None]], axis=1)
+        dNt_zd = t[:, :, None] * dN_zd[:, None, :]
+        ds1_zd = -tt[:, None] * dN_zd
+        J_zd = jnp.concatenate([dNt_zd, ds1_zd[:, None], -dNt_zd, -ds1_zd[:, None]], axis=1)
+        return J_z, J_zd
+
+    def assemble_stiff_blocks(self, q, qdot, J_z, J_zdot):
+        """``K = dQ/dq`` and ``C = dQ/dq_dot`` of :meth:`generalised_forces` from the elements'
+        Jacobians ``J_z``, ``J_zdot`` (n_el, 8, 8) (:meth:`element_row_jacobians`, plus whatever
+        element-local forces the caller adds, e.g. contact): the nodal coordinates are affine in
+        ``q`` with a constant map, ``x_n = (r_n, s_n) = B_n q_slow`` plus the internal node's own
+        ``r`` (identity), so ``K = A^T K_x A`` with ``K_x`` block-tridiagonal over the nodes (4 x 4
+        blocks summed from the two elements at each node). Returns ``(K_rr, C_rr)`` as
+        ``(lower, diag, upper)`` (n_int, 3, 3) each, ``(K_rz, C_rz)`` (n_int, 3, n_slow) (the
+        internal rows' columns on the pulleys' ``s`` and the block's ``u``) and ``(K_zz, C_zz)``
+        (n_slow, n_slow), the brake's derivative included."""
+        route = self.route
+        _, iidx, _, _ = route._index_tables()
+        _, _, _, moving = route._interpolation_tables()
+        internal = np.nonzero(iidx >= 0)[0]
+        pulleys = np.array(route.pulley_ids, dtype=int)
+        W = route.interpolation_weights()
+        n_nodes, n_p = W.shape[0], pulleys.size
+        # B_n (N, 4, n_slow): d(r_n, s_n)/d(s_pulleys, u)
+        B = jnp.zeros((n_nodes, 4, n_p + 1), J_z.dtype)
+        B = B.at[:, 3, :n_p].set(W[:, pulleys])
+        B = B.at[:, :3, n_p].set(jnp.asarray(moving, J_z.dtype)[:, None] * route.block_direction[None, :])
+        zero_el = jnp.zeros((1, 8, 8), J_z.dtype)
+        zero_node = jnp.zeros((1, 4, n_p + 1), J_z.dtype)
+        B_prev = jnp.concatenate([zero_node, B[:-1]])
+        B_next = jnp.concatenate([B[1:], zero_node])
+        prev_linked = iidx[internal - 1] >= 0  # internal nodes are never a route's first or last
+        next_linked = iidx[internal + 1] >= 0
+
+        def one(J):
+            E2 = jnp.concatenate([zero_el, J])  # element n - 1 of node n (its second end)
+            E1 = jnp.concatenate([J, zero_el])  # element n of node n (its first end)
+            D, L, U = E2[:, 4:, 4:] + E1[:, :4, :4], E2[:, 4:, :4], E1[:, :4, 4:]
+            dF = _mm(L, B_prev) + _mm(D, B) + _mm(U, B_next)  # (N, 4, n_slow)
+            tri = (
+                jnp.where(prev_linked[:, None, None], L[internal, :3, :3], 0.0),
+                D[internal, :3, :3],
+                jnp.where(next_linked[:, None, None], U[internal, :3, :3], 0.0),
+            )
+            return tri, dF[internal, :3], jnp.einsum("nis,nit->st", B, dF)
+
+        (K_rr, K_rz, K_zz), (C_rr, C_rz, C_zz) = one(J_z), one(J_zdot)
+        # the brake on the block coordinate (generalised_forces' Q_u)
+        brake = self.buffer.generalized_force
+        dQ_du = jax.jvp(lambda u: brake(qdot.u, u), (q.u,), (jnp.ones_like(q.u),))[1]
+        dQ_dudot = jax.jvp(lambda ud: brake(ud, q.u), (qdot.u,), (jnp.ones_like(qdot.u),))[1]
+        K_zz = K_zz.at[-1, -1].add(dQ_du)
+        C_zz = C_zz.at[-1, -1].add(dQ_dudot)
+        return (K_rr, C_rr), (K_rz, C_rz), (K_zz, C_zz)
 
     def slow_mass_blocks(self, kin: "CableKinematics"):
         """The mass matrix's rows of the slow coordinates (pulley ``s``, block ``u``): ``(M_rs

@@ -347,16 +347,19 @@ class PassiveLandingScene(AbstractScene):
         the hook-cable contact; none for massless cables."""
         if not isinstance(self.cables, AleCables):
             return ExplicitLinearisation()
-        blocks = self.cables.stiff_blocks(state.cables, self.hooks(state.rocket), t)
-        kin = self.cables.kinematics(state.cables)  # shared by the hinge rows and the coupling
-        hinge = self._hinge_jacobian(t, state, kin) if state.rocket.hinge_rate.shape[0] else None
-        coupling = HookCoupling.at(self.cables, self.rocket, state.cables, state.rocket, rows=_rocket_rows, kin=kin) if hook_coupling else None  # fmt: skip
+        hooks = self.hooks(state.rocket)
+        # the cables' kinematics and the contact pick, shared by the blocks, the hinge rows and the coupling
+        kin = self.cables.kinematics(state.cables)
+        picked = self.cables.contact_pairs_picked(kin, hooks)
+        blocks = self.cables.stiff_blocks(state.cables, hooks, t, kin=kin, picked=picked)
+        hinge = self._hinge_jacobian(t, state, kin, picked) if state.rocket.hinge_rate.shape[0] else None
+        coupling = HookCoupling.at(self.cables, self.rocket, state.cables, state.rocket, rows=_rocket_rows, kin=kin, picked=picked) if hook_coupling else None  # fmt: skip
         return CableLinearisation(
             blocks, rows=_cable_rows, active=self.cables.subsystems.route.active_slots, hinge=hinge,
             hinge_rows=_hinge_rows if hinge is not None else None, coupling=coupling,
         )  # fmt: skip
 
-    def _hinge_jacobian(self, t, state, kin=None):
+    def _hinge_jacobian(self, t, state, kin=None, picked=None):
         """``(d phi_dd / d phi, d phi_dd / d phi_dot)`` (nh, nh) of the hooks' hinges, diagonal: the
         hook dampers (c_h l_h^2 / I ~ 2e4 1/s) and the contact on the hooks' small inertia (~5e6
         1/s^2) are the stiff part of the rocket.
@@ -375,7 +378,9 @@ class PassiveLandingScene(AbstractScene):
         vector field: their derivative of the flexible rocket's mass matrix and Cholesky solve
         cost 1 ms of the 2.3 ms per step in the W-method's loop (full level, design case, beta =
         1e-2 s, 0.1 s, rtol 1e-4; 2-core CPU, float64), for the same steps
-        (``docs/stiff_integrator.md``). ``kin``: the cables' kinematics at ``state`` if computed."""
+        (``docs/stiff_integrator.md``). ``kin``, ``picked``: the cables' kinematics and the
+        contact pick at ``state`` if computed (the contact's derivative then runs on those pairs
+        only, as the vector field's JVP does)."""
         rocket = state.rocket
         phi, rate = _hinge_rows(state)
         one, zero = jnp.ones_like(phi), jnp.zeros_like(phi)
@@ -387,7 +392,7 @@ class PassiveLandingScene(AbstractScene):
         lever = jax.jvp(lambda p: hooks_at(p, rate).positions, (phi,), (one,))[1]  # dP/dphi (4, 3, 3)
 
         def contact_torques(phi_, rate_):
-            return jnp.sum(self.cables.contact_on_hooks(kin, hooks_at(phi_, rate_)) * lever, axis=(-2, -1))
+            return jnp.sum(self.cables.contact_on_hooks(kin, hooks_at(phi_, rate_), picked) * lever, axis=(-2, -1))
 
         _, dtau = jax.vmap(lambda a, b: jax.jvp(contact_torques, (phi, rate), (a, b)))(
             jnp.stack([one, zero]), jnp.stack([zero, one])

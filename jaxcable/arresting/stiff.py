@@ -196,11 +196,11 @@ class HookCoupling(eqx.Module):
     """``rows(state) -> the rocket's state`` within the scene's state."""
 
     @classmethod
-    def at(cls, cables, rocket, cable_state, rocket_state, rows, kin=None):
-        """The coupling at one state, with the cables' kinematics (``kin``, computed unless given)
-        and the contact pick computed."""
+    def at(cls, cables, rocket, cable_state, rocket_state, rows, kin=None, picked=None):
+        """The coupling at one state, with the cables' kinematics (``kin``) and the contact pick
+        (``picked``), each computed unless given."""
         kin = cables.kinematics(cable_state) if kin is None else kin
-        picked = cables.contact_pairs_picked(kin, _hook_points(rocket, rocket_state))
+        picked = cables.contact_pairs_picked(kin, _hook_points(rocket, rocket_state)) if picked is None else picked
         return cls(cables, rocket, cable_state, rocket_state, kin, picked, rows=rows)
 
     def forces_jvp(self, x_rocket):

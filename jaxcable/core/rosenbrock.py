@@ -132,11 +132,15 @@ class RosenbrockW(diffrax.AbstractAdaptiveSolver):
     ``simulate(solver="rosw")`` fills it with the scene's ``stiff_linearisation``."""
 
     linearise: Callable | None = None
-    jacobian_every: int = eqx.field(static=True, default=4)
+    jacobian_every: int = eqx.field(static=True, default=2)
     """Recompute the linearisation every this many accepted steps (a W-method keeps its order with
     a lagged ``J``; the factorisation is redone every step, as ``h`` changes). 1: every step.
-    Default 4: on the ale design case at beta = 1e-2 s, 0.2 s (rtol 1e-4, 2-core CPU, float64)
-    1 -> 4.30 s (3053 steps), 4 -> 2.87 s (3348), 16 -> 2.83 s (4389 steps, 658 rejected)."""
+    Default 2: a lagged ``J`` costs rejected steps, a fresh one its linearisation. On the design
+    case at the calibrated beta, first 0.2 s, rtol 1e-5 (2-core CPU, float64, idle), full level:
+    1 -> 5.99 s (3238 steps, 86 rejected), 2 -> 5.39 s (3407, 309), 3 -> 5.51 s, 4 -> 5.81 s (3816,
+    852); ale level: 1 -> 4.95 s, 2 -> 4.25 s, 4 -> 4.80 s. Under ``vmap`` the choice between a
+    fresh and a kept ``J`` runs both branches (a batched ``lax.cond`` is a select), so there 1
+    costs no more linearisations than 2 and rejects fewer steps."""
     term_structure: ClassVar = diffrax.AbstractTerm
     interpolation_cls: ClassVar = diffrax.ThirdOrderHermitePolynomialInterpolation
 

@@ -43,8 +43,15 @@ def _moving_state(scene):
 SOLVER = RosenbrockW(jacobian_every=4)
 
 
-def test_blocks_equal_the_dense_jacobian_of_the_cable_forces():
+# The blocks hold the stiff terms in closed form (AleCables.stiff_blocks): elasticity, Rayleigh
+# damping, the weight, the contact. They leave out the moving material's inertia terms (of order
+# rhoA sdot), so they equal the dense Jacobian exactly when the cable's mass per length is scaled
+# away, and differ from it by those terms at the real mass: measured on this state (beta = 1e-3 s)
+# 1.5e-9 of the largest entry in K, 1.1e-5 in C's internal blocks, 5.7e-3 in C's border columns.
+@pytest.mark.parametrize("mass_scale, rtol", [(1e-9, 1e-9), (1.0, 3e-2)], ids=["massless", "real mass"])
+def test_blocks_equal_the_dense_jacobian_of_the_cable_forces(mass_scale, rtol):
     scene = _scene(beta=1e-3)
+    scene = eqx.tree_at(lambda s: s.cables.subsystems.cable.rhoA_kg_per_m, scene, scene.cables.subsystems.cable.rhoA_kg_per_m * mass_scale)  # fmt: skip
     y = _moving_state(scene)
     hooks = scene.hooks(y.rocket)
     touching = float(scene.probe(0.0, y)["contact_pairs_touching"])
@@ -65,11 +72,11 @@ def test_blocks_equal_the_dense_jacobian_of_the_cable_forces():
         scale = np.abs(d_rr).max()
         for c in range(4):
             for j in range(n):
-                np.testing.assert_allclose(diag[c, j], d_rr[c, j, :, c, j, :], atol=1e-9 * scale)
+                np.testing.assert_allclose(diag[c, j], d_rr[c, j, :, c, j, :], atol=rtol * scale)
                 if j > 0:
-                    np.testing.assert_allclose(lower[c, j], d_rr[c, j, :, c, j - 1, :], atol=1e-9 * scale)
+                    np.testing.assert_allclose(lower[c, j], d_rr[c, j, :, c, j - 1, :], atol=rtol * scale)
                 if j < n - 1:
-                    np.testing.assert_allclose(upper[c, j], d_rr[c, j, :, c, j + 1, :], atol=1e-9 * scale)
+                    np.testing.assert_allclose(upper[c, j], d_rr[c, j, :, c, j + 1, :], atol=rtol * scale)
                 # nothing beyond the neighbours, and nothing between cables (the hooks held fixed)
                 far = [k for k in range(n) if abs(k - j) > 1]
                 assert np.abs(d_rr[c, j, :, c, far, :]).max(initial=0.0) <= 1e-12 * scale
@@ -79,8 +86,8 @@ def test_blocks_equal_the_dense_jacobian_of_the_cable_forces():
         cols_r = np.concatenate([np.asarray(jac_r[arg].s), np.asarray(jac_r[arg].u)[..., None]], axis=-1)
         cols_z = np.concatenate([np.asarray(jac_z[arg].s), np.asarray(jac_z[arg].u)[..., None]], axis=-1)
         for c in range(4):
-            np.testing.assert_allclose(np.asarray(blocks[rz])[c], cols_r[c, :, :, c], atol=1e-9 * np.abs(cols_r).max())
-            np.testing.assert_allclose(np.asarray(blocks[zz])[c], cols_z[c, :, c], atol=1e-9 * np.abs(cols_z).max())
+            np.testing.assert_allclose(np.asarray(blocks[rz])[c], cols_r[c, :, :, c], atol=rtol * np.abs(cols_r).max())
+            np.testing.assert_allclose(np.asarray(blocks[zz])[c], cols_z[c, :, c], atol=rtol * np.abs(cols_z).max())
 
 
 @pytest.mark.parametrize("h", [1e-4, 2e-3])
