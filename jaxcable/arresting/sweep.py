@@ -49,7 +49,7 @@ import numpy as np
 
 from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.layout import ArrestingLayout, CaptureState
-from jaxcable.arresting.landing import LEVEL_STEP_CONTROL, level_solver_settings
+from jaxcable.arresting.landing import LEVEL_STEP_CONTROL, batched_solver, level_solver_settings
 from jaxcable.arresting.passive import (
     DEFAULT_CABLE_DAMPING_S,
     G_CRITERIA,
@@ -238,7 +238,8 @@ class PassiveCaseFunction(AbstractLandingCaseFunction):
         return simulate(
             scene,
             self.t_end_s,
-            solver=self.solver,
+            # the cases run vmapped (run_sweep): the W-method relinearises at every step there
+            solver=batched_solver(self.solver),
             rtol=self.rtol,
             atol=self.atol,
             max_steps=self.max_steps,

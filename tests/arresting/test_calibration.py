@@ -118,3 +118,17 @@ def test_sweeps_at_the_calibrated_damping_run_the_w_method():
         assert qmc_case_fn("I", phase="full", fidelity=level).passive_solver_settings()[level][0] == "rosw"
         light = qmc_case_fn("I", phase="full", fidelity=level, cable_damping_s=LIGHT_CABLE_DAMPING_S)
         assert light.passive_solver_settings()[level][0] == "bosh3"
+
+
+def test_batched_sweeps_relinearise_the_w_method_at_every_step():
+    """Vmapped, the W-method's lagged J saves no linearisation (a batched cond computes both
+    branches): the passive sweep's cases run it with jacobian_every 1; other solvers pass as given."""
+    from jaxcable.arresting.landing import batched_solver
+    from jaxcable.core.rosenbrock import RosenbrockW
+
+    solver = batched_solver("rosw")
+    assert isinstance(solver, RosenbrockW) and solver.jacobian_every == 1
+    assert RosenbrockW().jacobian_every == 2  # single runs keep the lagged J
+    assert batched_solver("bosh3") == "bosh3"
+    custom = RosenbrockW(jacobian_every=3)
+    assert batched_solver(custom) is custom
