@@ -342,8 +342,8 @@ def chain_kinematics(r, s, v, sd, W=None):
     """:class:`CableKinematics` of a chain of nodes: positions ``r`` (N, 3) [m], material
     coordinates ``s`` (N,) [m], velocities ``v`` (N, 3) [m/s], material rates ``sd`` (N,) [m/s]
     (``W``: the interpolation weights, carried along). Used for a whole cable
-    (:meth:`CableSubsystem.kinematics`) and for one element at a time (a two-node chain: the
-    element-local Jacobians of :meth:`CableSubsystem.element_jacobians`)."""
+    (:meth:`CableSubsystem.kinematics`) and for one element at a time (a two-node chain,
+    :func:`element_chain`: the contact pairs' Jacobians of the W-method's linearisation)."""
     length = s[1:] - s[:-1]
     tangent = (r[1:] - r[:-1]) / length[:, None]
     tt = jnp.sum(tangent * tangent, axis=1)
@@ -581,13 +581,13 @@ class CableSubsystem(eqx.Module):
             dN/dzdot = EA beta t^T G,   d(N t)/dz = t dN/dz + N G.
 
         Left out (a W-method keeps its order with any ``J``): the inertia terms of the moving
-        material (``m_dot``, ``g`` of :meth:`_element_forces`: of order ``rhoA sdot`` and ``rhoA
-        sdot^2 / L``, 1e-4 of the damping and 1e-4 of the stiffness at 30 m/s of material flow on
-        the default mesh; ``tests/arresting/test_stiff.py`` measures it), and the air's drag on
-        the span. Before, the exact Jacobians came from 28 coloured JVPs of the whole
+        material (``m_dot``, ``g`` of :meth:`_element_forces`, of order ``rhoA sdot`` and ``rhoA
+        sdot^2 / L``; ``tests/arresting/test_stiff.py`` bounds what they change in the blocks, and
+        a run with the exact blocks took the same steps, ``docs/stiff_integrator.md``) and the
+        air's drag on the span. Before, the exact Jacobians came from 28 coloured JVPs of the whole
         :meth:`generalised_forces` (2.3 ms per linearisation at the full level on the default
-        mesh, about ten evaluations of the vector field), then from 16 tangents through each
-        element (0.9 ms): the closed form costs a few wide elementwise operations."""
+        mesh, about ten evaluations of the vector field); 16 tangents through each element took
+        0.86 ms of that; the closed form is a few wide elementwise operations."""
         EA, beta, rhoA = self.cable.EA_N, self.cable.damping_s, self.cable.rhoA_kg_per_m
         L, t, tt = kin.length, kin.tangent, kin.tangent_sq
         eps, eps_dot = kin.strain, kin.strain_rate
