@@ -452,8 +452,7 @@ class AleCables(eqx.Module):
         over the pairs ``picked`` (each pair's through its own element: 16 tangents per pair)."""
         lo, hi = self.span_slice
         n_span = hi - lo
-        cap = (picked // n_span) % 8  # flat pair index = ((cable * 4 + hook) * 2 + capsule) * n_span + element
-        el = (picked // (8 * n_span)) * n_span + picked % n_span  # cable * n_span + element
+        cap, el = _pair_capsule_and_element(picked, n_span)
         caps_p, caps_v = _capsules(hooks)
         cp, cv = caps_p.reshape(8, 2, 3), caps_v.reshape(8, 2, 3)
 
@@ -568,7 +567,8 @@ class AleCables(eqx.Module):
         Before, 28 coloured JVPs of the whole :meth:`cable_forces` cost 2.3 ms per linearisation
         at the full level on the default mesh, about ten evaluations of the vector field; now
         0.6 ms (``docs/stiff_integrator.md``). ``kin``, ``picked``: the cables' kinematics and the
-        contact pick at ``state``, if computed.
+        contact pick at ``state``, if computed. ``t`` [s] enters nothing here (it would through the
+        air's drag, which is left out); it keeps the signature of :meth:`cable_forces`.
         Returns a dict of these arrays (the slots of motor-driven pulleys are
         ``self.subsystems.route.active_slots``)."""
         kin = self.kinematics(state) if kin is None else kin
@@ -652,14 +652,19 @@ def _dense_pairs(law, hook_radius, cable_radius, caps_p, caps_v, r1, r2, a1, a2)
     return span_forces, f_caps, normal, penetration
 
 
+def _pair_capsule_and_element(picked, n_span):
+    """The capsule (``hook * 2 + capsule``, of 8) and the span element (``cable * n_span +
+    element``) of flat pair indices ``picked``, the flat index being ``((cable * 4 + hook) * 2 +
+    capsule) * n_span + element`` (the order of :func:`_dense_pairs`)."""
+    return (picked // n_span) % 8, (picked // (8 * n_span)) * n_span + picked % n_span
+
+
 def _picked_pairs(picked, law, hook_radius, cable_radius, caps_p, caps_v, r1, r2, a1, a2):
     """The same totals from the pairs with flat indices ``picked`` (m,) only (gathers in, one-hot
     sums out: no scatter)."""
     n_span = r1.shape[1]
     m = picked.shape[0]
-    # flat index = ((cable * 4 + hook) * 2 + capsule) * n_span + element
-    cap = (picked // n_span) % 8  # hook * 2 + capsule
-    el = (picked // (8 * n_span)) * n_span + picked % n_span  # cable * n_span + element
+    cap, el = _pair_capsule_and_element(picked, n_span)
     cp, cv = caps_p.reshape(8, 2, 3), caps_v.reshape(8, 2, 3)
     at_el = lambda a: a.reshape(4 * n_span, 3)[el]  # noqa: E731
     on_c, on_h, nrm, _ = jax.vmap(lambda *a: _pair_law(law, hook_radius, cable_radius, *a))(

@@ -73,6 +73,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax.flatten_util import ravel_pytree
 
+from jaxcable.core.banded import _mm
 from jaxcable.core.validation import check_finite, check_positive
 from jaxcable.components.ale import AleCable, axial_tension_factor, strain_energy_density
 from jaxcable.arresting.buffer import BufferDevice
@@ -368,11 +369,6 @@ def element_chain(z, zd):
 def element_rows(f_r, f_s):
     """An element's rows ``f_r`` (2, 3), ``f_s`` (2,) as ``(f_r1, f_s1, f_r2, f_s2)`` (8,)."""
     return jnp.concatenate([f_r[0], f_s[:1], f_r[1], f_s[1:]])
-
-
-def _mm(A, B):
-    """``A @ B`` over leading axes as a multiply-sum (small blocks; XLA fuses it)."""
-    return jnp.sum(A[..., :, :, None] * B[..., None, :, :], axis=-2)
 
 
 def _material_force_rows(tangent, element_forces):
