@@ -61,13 +61,14 @@ from jaxcable.arresting.design_setup import (
     design_gain,
     design_scene,
 )
-from jaxcable.arresting.landing import LEVEL_STEP_CONTROL, level_solver_settings
+from jaxcable.arresting.landing import LEVEL_STEP_CONTROL, batched_solver, level_solver_settings
 from jaxcable.arresting.passive import landing_outputs, smooth_landing_outputs
 from jaxcable.arresting.two_phase import TwoPhaseCaseFunction, event_occurred, two_phase_outputs
 from jaxcable.arresting.uncertainty import UNCERTAIN_PARAMETERS
 
 __all__ = [
     "batch_criteria",
+    "case_solver",
     "criteria_summary",
     "criterion_limit",
     "design_adjoint",
@@ -94,15 +95,21 @@ def _with_buffer(scene, buffer: BufferDevice):
     return eqx.tree_at(lambda s: s.cables.buffer, scene, buffer)
 
 
+def case_solver(problem: DesignProblem):
+    """The solver of the problem's cases: the level's for its cable damping
+    (:func:`.landing.level_solver_settings`), as a vmapped batch runs it (the W-method relinearised
+    at every step, :func:`.landing.batched_solver`)."""
+    return batched_solver(level_solver_settings(problem.fidelity, problem.cable_damping_s)[0])
+
+
 def _one_case(problem: DesignProblem, scene, adjoint):
     """One built scene: smooth and hard criteria, solver status and steps (scalars), with the
-    level's solver for the problem's cable damping (:func:`.landing.level_solver_settings`) and
-    step-size control (``LEVEL_STEP_CONTROL``)."""
+    solver of :func:`case_solver` and the level's step-size control (``LEVEL_STEP_CONTROL``)."""
     pcoeff, icoeff = LEVEL_STEP_CONTROL[problem.fidelity]
     res = simulate(
         scene,
         problem.t_end_s,
-        solver=level_solver_settings(problem.fidelity, problem.cable_damping_s)[0],
+        solver=case_solver(problem),
         rtol=problem.rtol,
         atol=problem.atol,
         max_steps=problem.max_steps,

@@ -93,7 +93,7 @@ from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.cable_sets import throat_weights
 from jaxcable.arresting.control import CALIBRATED_MOTOR_BANDWIDTH_PER_S, TrackingController
 from jaxcable.arresting.measurement import filtered_measurement, measurement_noise_track, target_point
-from jaxcable.arresting.landing import LEVEL_STEP_CONTROL, level_solver_settings, run_landing
+from jaxcable.arresting.landing import LEVEL_STEP_CONTROL, batched_solver, level_solver_settings, run_landing
 from jaxcable.arresting.landing_rocket import rigid_landing_rocket
 from jaxcable.arresting.layout import HOOK_OF_CABLE, ArrestingLayout, CaptureState
 from jaxcable.arresting.passive import (
@@ -651,8 +651,10 @@ class TwoPhaseCaseFunction(AbstractLandingCaseFunction):
         """``{fidelity: (solver, rtol, atol, max_steps)}`` of the passive phase, chosen from the static
         ``cable_damping_s`` (inside the sweep's trace the scene's damping is a tracer, which
         :func:`.landing.level_solver_settings` would read as the explicit default: Bosh3 at its
-        stability limit on stiffly damped cables)."""
-        return {self.fidelity: level_solver_settings(self.fidelity, self.cable_damping_s)}
+        stability limit on stiffly damped cables). The sweep vmaps this phase, so the W-method
+        relinearises at every step (:func:`.landing.batched_solver`)."""
+        solver, rtol, atol, steps = level_solver_settings(self.fidelity, self.cable_damping_s)
+        return {self.fidelity: (batched_solver(solver), rtol, atol, steps)}
 
     def _solve(self, case):
         out1, _, passive = case

@@ -106,6 +106,7 @@ def test_sweeps_at_the_calibrated_damping_run_the_w_method():
         LIGHT_CABLE_DAMPING_S,
     )
     from jaxcable.arresting.sweep import passive_case_fn, qmc_case_fn
+    from jaxcable.core.rosenbrock import RosenbrockW
 
     beta = C.CALIBRATED_CABLE_DAMPING_S
     assert DEFAULT_CABLE_DAMPING_S == beta
@@ -113,9 +114,11 @@ def test_sweeps_at_the_calibrated_damping_run_the_w_method():
         assert passive_case_fn(level, cable_damping_s=beta).solver == "rosw"
         assert passive_case_fn(level).solver == "rosw"  # the default damping
         assert passive_case_fn(level, cable_damping_s=LIGHT_CABLE_DAMPING_S).solver == "bosh3"
-        two_phase = qmc_case_fn("I", phase="full", fidelity=level, cable_damping_s=beta)
-        assert two_phase.passive_solver_settings()[level][0] == "rosw"
-        assert qmc_case_fn("I", phase="full", fidelity=level).passive_solver_settings()[level][0] == "rosw"
+        # the two-phase sweep vmaps its passive phase: the W-method relinearised at every step
+        for fn in (qmc_case_fn("I", phase="full", fidelity=level, cable_damping_s=beta),
+                   qmc_case_fn("I", phase="full", fidelity=level)):  # fmt: skip
+            solver = fn.passive_solver_settings()[level][0]
+            assert isinstance(solver, RosenbrockW) and solver.jacobian_every == 1
         light = qmc_case_fn("I", phase="full", fidelity=level, cable_damping_s=LIGHT_CABLE_DAMPING_S)
         assert light.passive_solver_settings()[level][0] == "bosh3"
 
@@ -132,3 +135,19 @@ def test_batched_sweeps_relinearise_the_w_method_at_every_step():
     assert batched_solver("bosh3") == "bosh3"
     custom = RosenbrockW(jacobian_every=3)
     assert batched_solver(custom) is custom
+
+
+def test_vmapped_design_batches_relinearise_the_w_method_at_every_step():
+    """The design objective vmaps its cases: at the calibrated damping its ale cases run the
+    W-method relinearised at every step; lightly damped, explicit Bosh3."""
+    from jaxcable.arresting.design import design_problem
+    from jaxcable.arresting.design_objective import case_solver
+    from jaxcable.arresting.passive import LIGHT_CABLE_DAMPING_S
+    from jaxcable.core.rosenbrock import RosenbrockW
+
+    mesh = {"n_span_elements": 8, "n_fine": 4}
+    solver = case_solver(design_problem("m_w", n=1, fidelity="ale", t_end_s=0.05, scene_options=mesh))
+    assert isinstance(solver, RosenbrockW) and solver.jacobian_every == 1
+    light = design_problem("m_w", n=1, fidelity="ale", t_end_s=0.05, cable_damping_s=LIGHT_CABLE_DAMPING_S,
+                           scene_options=mesh)  # fmt: skip
+    assert case_solver(light) == "bosh3"
