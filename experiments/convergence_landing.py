@@ -16,6 +16,11 @@ elements, ``DEFAULT_FINE_ELEMENTS`` = 16 of them fine; the contact law of
 ``mesh_x2``     every span element halved (64 span elements, 32 fine)
 ``mesh_x4``     every span element quartered (128 span elements, 64 fine): the diagnostic of ``mesh_x2``
 ``fine_x2``     the fine elements halved (48 span elements, 32 fine; the coarse ones unchanged)
+``fine_x4``     the fine elements quartered (80 span elements, 64 fine; the coarse ones unchanged)
+``fine_wide``   the fine region widened from +-3 m to +-6 m around the hook at the same fine element
+                length (48 span elements, 32 fine): does the hook leave the fine region as the cable
+                slides over it?
+``fine_wide_x2`` +-6 m with the fine elements halved (80 span elements, 64 fine)
 ``contact_x2``  hook-cable contact stiffness k x 2 (the Hunt-Crossley factor c unchanged, so the
                 restitution of an impact is unchanged)
 ``contact_half`` k / 2
@@ -49,13 +54,18 @@ from jaxcable.core.config import enable_x64
 from jaxcable.arresting import calibration as C
 from jaxcable.arresting.landing import level_solver_settings, run_landing
 from jaxcable.arresting.passive import DEFAULT_FINE_ELEMENTS as N_FINE
+from jaxcable.arresting.passive import DEFAULT_FINE_HALF_WIDTH_M as FINE_HALF_WIDTH_M
 from jaxcable.arresting.passive import DEFAULT_SPAN_ELEMENTS as N_SPAN
 from jaxcable.arresting.passive import SAVE_SPACING_S, scene_contact_law
 
 STEM = "convergence_landing"
 KEYS = ("z_max_m", "a_max_g", "sigma_max_mpa")
 GOALS = {"z_max_m": 0.01, "a_max_g": 0.03, "sigma_max_mpa": 0.03}
-VARIANTS = ("default", "mesh_half", "mesh_x2", "mesh_x4", "fine_x2", "contact_x2", "contact_half", "contact_c_x2", "contact_c_half", "rtol_10", "save_4")
+VARIANTS = ("default", "mesh_half", "mesh_x2", "mesh_x4", "fine_x2", "fine_x4", "fine_wide", "fine_wide_x2", "contact_x2", "contact_half", "contact_c_x2", "contact_c_half", "rtol_10", "save_4")
+
+
+DIAGNOSTIC_VARIANTS = ("mesh_x4", "fine_x4", "fine_wide", "fine_wide_x2")
+"""Variants run on request only (``--variants``): the mesh diagnostics of the deviated case's sigma_max."""
 
 
 def variant_kwargs(name, level, beta):
@@ -67,6 +77,9 @@ def variant_kwargs(name, level, beta):
         "mesh_x2": dict(n_span_elements=2 * N_SPAN, n_fine=2 * N_FINE),
         "mesh_x4": dict(n_span_elements=4 * N_SPAN, n_fine=4 * N_FINE),
         "fine_x2": dict(n_span_elements=N_SPAN + N_FINE, n_fine=2 * N_FINE),
+        "fine_x4": dict(n_span_elements=N_SPAN + 3 * N_FINE, n_fine=4 * N_FINE),
+        "fine_wide": dict(n_span_elements=N_SPAN + N_FINE, n_fine=2 * N_FINE, fine_half_width_m=2 * FINE_HALF_WIDTH_M),
+        "fine_wide_x2": dict(n_span_elements=N_SPAN + 3 * N_FINE, n_fine=4 * N_FINE, fine_half_width_m=2 * FINE_HALF_WIDTH_M),
         "contact_x2": dict(contact=eqx.tree_at(lambda c: c.k, law, 2.0 * law.k)),
         "contact_half": dict(contact=eqx.tree_at(lambda c: c.k, law, 0.5 * law.k)),
         "contact_c_x2": dict(contact=eqx.tree_at(lambda c: c.c, law, 2.0 * law.c)),
@@ -139,7 +152,7 @@ def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--levels", nargs="*", default=["ale"], choices=["ale", "full"])
     p.add_argument("--cases", nargs="*", default=["design", "iva"], choices=["design", "iva"])
-    p.add_argument("--variants", nargs="*", default=[v for v in VARIANTS if v != "mesh_x4"], choices=VARIANTS)
+    p.add_argument("--variants", nargs="*", default=[v for v in VARIANTS if v not in DIAGNOSTIC_VARIANTS], choices=VARIANTS)
     p.add_argument("--beta", type=float, default=None, help="cable damping [s] (default: the calibrated value)")
     p.add_argument("--design-t-end", type=float, default=1.0)
     p.add_argument("--iva-t-end", type=float, default=1.2)

@@ -53,12 +53,12 @@ def flight(segment_m, solver, rtol):
     wall = time.perf_counter() - t0
     completions = float(r.outputs["deployed_rope_m"]) / segment_m
     steps = int(r.num_steps)
-    return dict(
-        segment_m=segment_m, solver=solver, rtol=rtol, status=int(r.status), steps=steps,
-        rejected=int(r.num_rejected), completions=round(completions, 1),
-        steps_per_completion=steps / max(completions, 1.0), range_m=float(r.outputs["range_m"]),
-        flight_time_s=float(r.t_final), run_s=wall,
-    )  # fmt: skip
+    return {
+        "segment_m": segment_m, "solver": solver, "rtol": rtol, "status": int(r.status), "steps": steps,
+        "rejected": int(r.num_rejected), "completions": round(completions, 1),
+        "steps_per_completion": steps / max(completions, 1.0), "range_m": float(r.outputs["range_m"]),
+        "flight_time_s": float(r.t_final), "run_s": wall,
+    }  # fmt: skip
 
 
 def write_md(data, path):

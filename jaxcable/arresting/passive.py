@@ -106,6 +106,7 @@ __all__ = [
     "CRITERIA_CFC_HZ",
     "DEFAULT_CABLE_DAMPING_S",
     "DEFAULT_FINE_ELEMENTS",
+    "DEFAULT_FINE_HALF_WIDTH_M",
     "DEFAULT_SPAN_ELEMENTS",
     "FIDELITY_LEVELS",
     "LIGHT_CABLE_DAMPING_S",
@@ -659,6 +660,9 @@ a_max converges at 32 (within 1.1% of 64 elements; 16 err by -6%, ``docs/arresti
 DEFAULT_FINE_ELEMENTS = 16
 """Of those, equal fine elements over +-3 m around each hook (0.375 m) unless given."""
 
+DEFAULT_FINE_HALF_WIDTH_M = 3.0
+"""Half-width of the fine region around each hook's throat at capture [m] unless given."""
+
 DEFAULT_CONTACT_SLIP_M_S = 0.5
 """Hook-cable friction: slip speed ``v_s`` [m/s] at which ``mu`` reaches ``mu_s`` in the ale/full
 scenes unless a ``contact`` law is given (``v_d = 2.5 v_s``; reasons in :func:`passive_landing_scene`)."""
@@ -679,7 +683,7 @@ def passive_landing_scene(
     contact=None,
     n_span_elements: int = DEFAULT_SPAN_ELEMENTS,
     n_fine: int = DEFAULT_FINE_ELEMENTS,
-    fine_half_width_m: float = 3.0,
+    fine_half_width_m: float = DEFAULT_FINE_HALF_WIDTH_M,
     n_rocket_bodies: int = 5,
     t_end_s: float = 2.0,
     cable_damping_s: float = DEFAULT_CABLE_DAMPING_S,
