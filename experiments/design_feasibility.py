@@ -14,14 +14,15 @@ batch whatever the other captures do: an empty feasible set here is an answer fo
 
 Writes ``design_feasibility.{json,md,png}``. Usage:
 
-    python experiments/design_feasibility.py                     # 3 x 3 grid, full + rigid (~15 min)
+    python experiments/design_feasibility.py                     # 7 x 4 grid, rigid + full (~15 min)
     python experiments/design_feasibility.py --quick             # 2 x 2, ale, 0.3 s; experiments/out/
-    python experiments/design_feasibility.py --m-w 600 920 1400 --f-f 2.9e5 3.13e5 3.4e5
+    python experiments/design_feasibility.py --levels full --m-w 900 950 --f-f 3.2e5
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import time
 
 import _report
@@ -48,9 +49,11 @@ def write_md(data, path):
     c = data["criteria"]
     lines = ["# Buffers on the design case: which meet every criterion", "", *_report.header(data), ""]
     lines += [
-        f"Design case (Table 1: centre, vertical, 20 m/s), {data['t_end_s']:g} s, each level's default mesh, "
-        f"solver and calibrated cable damping. Criteria: z_max < {c['z_max_m']:g} m, a_max (CFC 60) < "
-        f"{c['a_max_g']:g} g, sigma_max < {c['sigma_max_mpa']:g} MPa, stopped. A cell meeting all is in bold.",
+        (
+            f"Design case (Table 1: centre, vertical, 20 m/s), {data['t_end_s']:g} s, each level's default mesh, "
+            f"solver and calibrated cable damping. Criteria: z_max < {c['z_max_m']:g} m, a_max (CFC 60) < "
+            f"{c['a_max_g']:g} g, sigma_max < {c['sigma_max_mpa']:g} MPa, stopped. A cell meeting all is in bold."
+        ),
         "",
     ]
     for level in data["levels"]:
@@ -69,30 +72,34 @@ def write_md(data, path):
 
 
 def plot(data, path):
+    """a_max against m_w, one line per F_f and one panel per level; filled markers where z_max and
+    sigma_max meet their limits and the rocket stopped (then the cell meets every criterion if its
+    a_max is below the dashed limit), open markers where they do not."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     levels = data["levels"]
-    fig, axes = plt.subplots(1, len(levels), figsize=(5.5 * len(levels), 4.5), squeeze=False)
     c = data["criteria"]
+    fig, axes = plt.subplots(1, len(levels), figsize=(5.5 * len(levels), 4.2), squeeze=False, sharey=True)
+    forces = sorted({r["F_f_N"] for r in data["rows"]})
+    colours = plt.cm.viridis(np.linspace(0.0, 0.85, len(forces)))
     for ax, level in zip(axes[0], levels):
-        rows = [r for r in data["rows"] if r["level"] == level]
-        for r in rows:
-            ok = r["criteria_met"]
-            ax.scatter(r["m_w_kg"], r["F_f_N"] / 1e3, s=260, c="tab:green" if ok else "tab:red", alpha=0.35)
-            fails = [name for name, key in (("z", "z_max_m"), ("a", "a_max_g"), ("s", "sigma_max_mpa")) if r[key] >= c[key]]
-            ax.annotate(
-                f"{r['z_max_m']:.2f} m\n{r['a_max_g']:.2f} g\n{r['sigma_max_mpa']:.0f} MPa"
-                + (f"\nfails {','.join(fails)}" if fails else ""),
-                (r["m_w_kg"], r["F_f_N"] / 1e3), fontsize=7, ha="center", va="center",
-            )  # fmt: skip
+        for f_f, colour in zip(forces, colours):
+            rows = sorted((r for r in data["rows"] if r["level"] == level and r["F_f_N"] == f_f), key=lambda r: r["m_w_kg"])
+            m = [r["m_w_kg"] for r in rows]
+            a = [r["a_max_g"] for r in rows]
+            ax.plot(m, a, "-", color=colour, lw=1.0, label=f"F_f = {f_f / 1e3:.0f} kN")
+            for r in rows:
+                ok = r["z_max_m"] < c["z_max_m"] and r["sigma_max_mpa"] < c["sigma_max_mpa"] and r["stopped"]
+                ax.plot(r["m_w_kg"], r["a_max_g"], "o", color=colour, mfc=colour if ok else "white", ms=6)
+        ax.axhline(c["a_max_g"], color="k", ls="--", lw=0.8)
         ax.set_xlabel("counterweight m_w [kg]")
-        ax.set_ylabel("brake F_f [kN]")
         ax.set_title(f"design case, {level} level")
-        ax.margins(0.18)
         ax.grid(alpha=0.3)
+    axes[0, 0].set_ylabel("a_max (CFC 60) [g]")
+    axes[0, -1].legend(fontsize=8, title="filled: z_max, sigma_max met", title_fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
 
@@ -100,12 +107,20 @@ def plot(data, path):
 def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--levels", nargs="+", default=["rigid", "full"], choices=["rigid", "ale", "full"])
-    p.add_argument("--m-w", nargs="+", type=float, default=[600.0, 920.0, 1400.0], help="counterweight masses [kg]")
-    p.add_argument("--f-f", nargs="+", type=float, default=[2.9e5, 3.13e5, 3.4e5], help="brake forces [N]")
+    p.add_argument("--m-w", nargs="+", type=float, default=[300.0, 600.0, 800.0, 920.0, 1000.0, 1100.0, 1400.0],
+                   help="counterweight masses [kg]")
+    p.add_argument("--f-f", nargs="+", type=float, default=[3.2e5, 3.25e5, 3.3e5, 3.4e5], help="brake forces [N]")
     p.add_argument("--t-end", type=float, default=1.2, help="simulated time [s] (default 1.2)")
     p.add_argument("--quick", action="store_true")
     p.add_argument("--out", default=None)
+    p.add_argument("--replot", action="store_true", help="redraw the figure and the table from the saved JSON")
     args = p.parse_args()
+    if args.replot:
+        out = _report.output_dir(args.out, args.quick)
+        data = json.loads((out / f"{STEM}.json").read_text())
+        plot(data, out / f"{STEM}.png")
+        write_md(data, out / f"{STEM}.md")
+        return
     if args.quick:
         args.levels, args.m_w, args.f_f, args.t_end = ["ale"], [920.0, 1400.0], [3.13e5, 3.4e5], 0.3
     enable_x64()
