@@ -45,7 +45,7 @@ def one_cell(level, m_w, f_f, t_end):
     return dict(level=level, m_w_kg=m_w, F_f_N=f_f, steps=run.num_steps, wall_s=time.perf_counter() - t0, **row)
 
 
-def write_md(data, path):
+def write_md(data, path, stem=STEM):
     c = data["criteria"]
     lines = ["# Buffers on the design case: which meet every criterion", "", *_report.header(data), ""]
     lines += [
@@ -67,7 +67,7 @@ def write_md(data, path):
                 f"{r['sigma_max_mpa']:.0f} | {r['stopped']} | {met} | {r['steps']} | {r['wall_s']:.0f} |"
             )
         lines.append("")
-    lines.append(f"![criteria over the grid]({STEM}.png)")
+    lines.append(f"![criteria over the grid]({stem}.png)")
     _report.write_lines(path, lines)
 
 
@@ -114,12 +114,14 @@ def main():
     p.add_argument("--quick", action="store_true")
     p.add_argument("--out", default=None)
     p.add_argument("--replot", action="store_true", help="redraw the figure and the table from the saved JSON")
+    p.add_argument("--tag", default="", help="suffix of the results' file names (e.g. _fine)")
     args = p.parse_args()
+    stem = STEM + args.tag
     if args.replot:
         out = _report.output_dir(args.out, args.quick)
-        data = json.loads((out / f"{STEM}.json").read_text())
-        plot(data, out / f"{STEM}.png")
-        write_md(data, out / f"{STEM}.md")
+        data = json.loads((out / f"{stem}.json").read_text())
+        plot(data, out / f"{stem}.png")
+        write_md(data, out / f"{stem}.md", stem)
         return
     if args.quick:
         args.levels, args.m_w, args.f_f, args.t_end = ["ale"], [920.0, 1400.0], [3.13e5, 3.4e5], 0.3
@@ -136,9 +138,9 @@ def main():
                 row = one_cell(level, m_w, f_f, args.t_end)
                 data["rows"].append(row)
                 print(row, flush=True)
-                _report.save(data, out, STEM)
-    plot(data, out / f"{STEM}.png")
-    _report.finish(data, out, STEM, write_md)
+                _report.save(data, out, stem)
+    plot(data, out / f"{stem}.png")
+    _report.finish(data, out, stem, lambda d, path: write_md(d, path, stem))
 
 
 if __name__ == "__main__":
