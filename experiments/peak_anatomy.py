@@ -41,7 +41,7 @@ import numpy as np
 
 from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.landing import run_landing
-from jaxcable.arresting.layout import ArrestingLayout
+from jaxcable.arresting.layout import ArrestingLayout, kink_return_times
 from jaxcable.arresting.one_dof import paper_design
 from jaxcable.arresting.passive import DEFAULT_CABLE_DAMPING_S
 from jaxcable.core.config import enable_x64
@@ -86,23 +86,11 @@ def spectrum_peaks(ts, x, k=4, f_min_hz=8.0):
     return [(float(fr[i]), float(F[i] / top)) for i in sorted(peaks)]
 
 
-def kink_returns(rigid, rhoA_kg_per_m, layout=None):
-    """Times [s] at which a transverse kink launched at the hook at t = 0 is back at the hook after
-    one and two round trips over a leg (hook to slider pulley), with the wave speed
-    ``sqrt(T / rhoA)`` of the rigid level's tension history (module docstring); NaN if not within
-    the run."""
-    layout = ArrestingLayout() if layout is None else layout
-    ts, sigma, drop = rigid["_ts"], rigid["_sigma_pa"], rigid["_drop_m"]
-    area = np.pi * float(layout.cable_radius_m) ** 2
-    tension = np.maximum(sigma * area, float(layout.pretension_N))
-    c = np.sqrt(tension / rhoA_kg_per_m)
-    travelled = np.concatenate([[0.0], np.cumsum(0.5 * (c[1:] + c[:-1]) * np.diff(ts))])
-    leg = np.hypot(float(layout.half_span_m), drop)
-    out = []
-    for trips in (2.0, 4.0):
-        hit = np.nonzero(travelled >= trips * leg)[0]
-        out.append(float(ts[hit[0]]) if hit.size else float("nan"))
-    return out
+def kink_returns(rigid, rhoA_kg_per_m):
+    """The kink's first and second return to the hook [s] with the rigid level's histories and the
+    run's ``rhoA`` (:func:`jaxcable.arresting.layout.kink_return_times`; module docstring)."""
+    layout = ArrestingLayout(rhoA_kg_per_m=rhoA_kg_per_m)
+    return kink_return_times(layout, rigid["_ts"], rigid["_sigma_pa"], rigid["_drop_m"])
 
 
 def one_run(label, level, kw, buffer, t_end):

@@ -227,6 +227,16 @@ class CableRoute(eqx.Module):
         moving[rows[bidx >= 0]] = np.asarray(self.moving, dtype=float)[bidx[bidx >= 0]]
         return boundary, start, end, moving
 
+    def slow_node_maps(self, W=None):
+        """How the nodes move with the slow coordinates (constant): ``(S (N, n_p), U (N, 3))``,
+        ``S = d s_node / d s_pulley`` and ``U = d r_node / d u`` (the moving block's nodes follow
+        ``block_direction``). ``W``: :meth:`interpolation_weights`, if at hand."""
+        W = self.interpolation_weights() if W is None else W
+        _, _, _, moving = self._interpolation_tables()
+        S = W[:, np.array(self.pulley_ids, dtype=int)]
+        U = moving[:, None] * self.block_direction[None, :]
+        return S, U
+
     def interpolation_weights(self):
         """``W`` (N, nb): material coordinates of all nodes are ``W @ s_b`` (constant in time)."""
         boundary, start, end, _ = self._interpolation_tables()
@@ -627,15 +637,13 @@ class CableSubsystem(eqx.Module):
         (n_slow, n_slow), the brake's derivative included."""
         route = self.route
         _, iidx, _, _ = route._index_tables()
-        _, _, _, moving = route._interpolation_tables()
         internal = np.nonzero(iidx >= 0)[0]
-        pulleys = np.array(route.pulley_ids, dtype=int)
-        W = route.interpolation_weights()
-        n_nodes, n_p = W.shape[0], pulleys.size
+        S, U = route.slow_node_maps()
+        n_nodes, n_p = S.shape
         # B_n (N, 4, n_slow): d(r_n, s_n)/d(s_pulleys, u)
         B = jnp.zeros((n_nodes, 4, n_p + 1), J_z.dtype)
-        B = B.at[:, 3, :n_p].set(W[:, pulleys])
-        B = B.at[:, :3, n_p].set(jnp.asarray(moving, J_z.dtype)[:, None] * route.block_direction[None, :])
+        B = B.at[:, 3, :n_p].set(S)
+        B = B.at[:, :3, n_p].set(U)
         zero_el = jnp.zeros((1, 8, 8), J_z.dtype)
         zero_node = jnp.zeros((1, 4, n_p + 1), J_z.dtype)
         B_prev = jnp.concatenate([zero_node, B[:-1]])
@@ -682,12 +690,8 @@ class CableSubsystem(eqx.Module):
         each element end and their mass-weighted forms: ``(S (N, n_p) d s_node / d s_pulley, t (n_el,
         3) tangents, U (N, 3) d r_node / d u, c (n_el,) rhoA L / 6, G1, G2 (n_el, 3, n_slow) at the
         first and second ends, H1 = c (2 G1 + G2), H2 = c (G1 + 2 G2))``."""
-        route = self.route
-        _, _, _, moving = route._interpolation_tables()
-        pulleys = np.array(route.pulley_ids, dtype=int)
-        S = kin.W[:, pulleys]
+        S, U = self.route.slow_node_maps(kin.W)
         t = kin.tangent
-        U = moving[:, None] * route.block_direction[None, :]
         G1 = jnp.concatenate([-t[:, :, None] * S[:-1, None, :], U[:-1, :, None]], axis=2)
         G2 = jnp.concatenate([-t[:, :, None] * S[1:, None, :], U[1:, :, None]], axis=2)
         c = (self.cable.rhoA_kg_per_m / 6.0) * kin.length
@@ -710,12 +714,10 @@ class CableSubsystem(eqx.Module):
 
     def _generalised(self, kin: "CableKinematics", F_r, F_s):
         """``A^T`` of nodal forces ``F_r`` (N, 3), ``F_s`` (N,): generalised forces (r, s, u)."""
-        route = self.route
-        _, _, _, moving = route._interpolation_tables()
-        Q_r = route.internal_rows(F_r)
-        pulleys = np.array(route.pulley_ids, dtype=int)
-        Q_s = jnp.sum(kin.W[:, pulleys] * F_s[:, None], axis=0)
-        Q_u = jnp.sum(moving[:, None] * F_r * route.block_direction[None, :])
+        S, U = self.route.slow_node_maps(kin.W)
+        Q_r = self.route.internal_rows(F_r)
+        Q_s = jnp.sum(S * F_s[:, None], axis=0)
+        Q_u = jnp.sum(U * F_r)
         return Q_r, Q_s, Q_u
 
     def accelerations(

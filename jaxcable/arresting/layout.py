@@ -42,7 +42,7 @@ from jaxcable.core.validation import (
     positive,
 )
 
-__all__ = ["ArrestingLayout", "CaptureState", "HOOK_OF_CABLE", "span_endpoints"]
+__all__ = ["ArrestingLayout", "CaptureState", "HOOK_OF_CABLE", "kink_return_times", "span_endpoints"]
 
 HOOK_OF_CABLE = (0, 2, 1, 3)
 """Index of the hook that engages cable k (cables: east, west, north, south)."""
@@ -229,6 +229,27 @@ CAPTURE_BOUNDS = {
 }
 """The bound of each :class:`CaptureState` field, ``{field: check(name, value)}`` (reasons in the
 class docstring)."""
+
+
+def kink_return_times(layout: ArrestingLayout, ts, stress_pa, drop_m, round_trips=(1, 2)):
+    """When a transverse kink launched by the hook at the middle of an arresting span at t = 0 is
+    back at the hook [s], after each of ``round_trips`` trips to a slider pulley and back: the
+    first time ``int_0^t c dt`` reaches ``2 k`` leg lengths, with the string's wave speed
+    ``c = sqrt(T / rhoA)``, ``T = stress pi r^2`` (at least the pre-tension) and the leg
+    ``hypot(l_0, drop)``. ``ts`` [s], ``stress_pa`` [Pa] and ``drop_m`` [m] are histories (NumPy),
+    e.g. a rigid-level landing's quasi-static ones: an estimate that owes nothing to the ALE cables
+    (``docs/arresting_validation.md``, "The centred capture above the rigid level"). NaN where the
+    histories end first."""
+    ts, stress_pa, drop_m = (np.asarray(x, dtype=float) for x in (ts, stress_pa, drop_m))
+    tension = np.maximum(stress_pa * np.pi * float(layout.cable_radius_m) ** 2, float(layout.pretension_N))
+    c = np.sqrt(tension / float(layout.rhoA_kg_per_m))
+    travelled = np.concatenate([[0.0], np.cumsum(0.5 * (c[1:] + c[:-1]) * np.diff(ts))])
+    leg = np.hypot(float(layout.half_span_m), drop_m)
+    out = []
+    for k in round_trips:
+        hit = np.nonzero(travelled >= 2.0 * k * leg)[0]
+        out.append(float(ts[hit[0]]) if hit.size else float("nan"))
+    return out
 
 
 def _is_concrete(value):

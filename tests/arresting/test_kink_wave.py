@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 from jaxcable.arresting.landing import run_landing
-from jaxcable.arresting.layout import ArrestingLayout
+from jaxcable.arresting.layout import ArrestingLayout, kink_return_times
 
 T_END = 0.35
 WINDOW = (0.05, 0.35)
@@ -39,19 +39,6 @@ def _largest_rise(run):
     return float(ts[i]), float(d[i])
 
 
-def _kink_return(rigid, layout):
-    """First time [s] at which ``int c dt`` with ``c = sqrt(T / rhoA)``, ``T`` the rigid run's
-    tension (at least the pre-tension), reaches twice the leg from the hook to the slider pulley."""
-    ts = np.asarray(rigid.ts)
-    tension = np.maximum(
-        np.asarray(rigid.probes["stress_max_pa"]) * np.pi * float(layout.cable_radius_m) ** 2, float(layout.pretension_N)
-    )
-    c = np.sqrt(tension / float(layout.rhoA_kg_per_m))
-    travelled = np.concatenate([[0.0], np.cumsum(0.5 * (c[1:] + c[:-1]) * np.diff(ts))])
-    leg = np.hypot(float(layout.half_span_m), np.asarray(rigid.probes["drop_m"]))
-    return float(ts[np.argmax(travelled >= 2.0 * leg)])
-
-
 @pytest.mark.slow
 def test_the_kink_returns_when_the_string_wave_speed_says():
     rigid = run_landing("rigid", t_end_s=T_END)
@@ -60,7 +47,7 @@ def test_the_kink_returns_when_the_string_wave_speed_says():
     rho = ArrestingLayout().rhoA_kg_per_m
     for factor in (1.0, 0.3):
         layout = ArrestingLayout(rhoA_kg_per_m=factor * rho)
-        estimate = _kink_return(rigid, layout)
+        (estimate,) = kink_return_times(layout, rigid.ts, rigid.probes["stress_max_pa"], rigid.probes["drop_m"], (1,))
         t_rise, rise = _largest_rise(run_landing("ale", layout=layout, t_end_s=T_END))
         assert 0.7 * estimate <= t_rise <= 1.05 * estimate, (factor, t_rise, estimate)
         if factor == 1.0:
