@@ -38,6 +38,7 @@ record of the same study with 16 span elements (8 fine) as the default. Usage::
     python experiments/convergence_landing.py --levels ale               # ~25 min on 2 cores
     python experiments/convergence_landing.py --levels full --cases design
     python experiments/convergence_landing.py --quick                    # ale, design, 0.1 s, 2 variants
+    python experiments/convergence_landing.py --levels full --cases design --buffer 900 3.22e5 --tag _buffer_900
 """
 
 from __future__ import annotations
@@ -51,7 +52,9 @@ import equinox as eqx
 import numpy as np
 
 from jaxcable.core.config import enable_x64
+from jaxcable.core.validation import check_finite, check_positive
 from jaxcable.arresting import calibration as C
+from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.landing import level_solver_settings, run_landing
 from jaxcable.arresting.passive import DEFAULT_FINE_ELEMENTS as N_FINE
 from jaxcable.arresting.passive import DEFAULT_FINE_HALF_WIDTH_M as FINE_HALF_WIDTH_M
@@ -97,10 +100,12 @@ def iva_passive_kwargs():
     return _passive_kwargs(scene, out, True)
 
 
-def one_run(case, level, variant, beta, t_end, iva_kwargs):
+def one_run(case, level, variant, beta, t_end, iva_kwargs, buffer=None):
     kw = dict(cable_damping_s=beta, **variant_kwargs(variant, level, beta))
     if case == "iva":
         kw.update(iva_kwargs)
+    elif buffer is not None:
+        kw["buffer"] = buffer
     t0 = time.perf_counter()
     run = run_landing(level, t_end_s=t_end, **kw)
     wall = time.perf_counter() - t0
@@ -128,7 +133,9 @@ def write_md(data, path):
     L = ["# Convergence of the landing criteria", "", *_report.header(data), ""]
     L += [
         f"Cable damping beta = {data['beta_s']:.4g} s (calibrated, `experiments/calibrate_damping.py`). "
-        f"Default mesh: {data.get('default_mesh', [16, 8])[0]} span elements, {data.get('default_mesh', [16, 8])[1]} fine. "
+        + (f"Design case with the buffer m_w = {data['buffer'][0]:g} kg, F_f = {data['buffer'][1]:g} N (Table 1: 920 kg, "
+           "3.13e5 N). " if data.get("buffer") else "")
+        + f"Default mesh: {data.get('default_mesh', [16, 8])[0]} span elements, {data.get('default_mesh', [16, 8])[1]} fine. "
         "Deviation of each variant from the level's default; goals: z_max 1%, a_max and sigma_max (CFC 60) 3%. "
         "Raw (unfiltered) maxima beside. A cell marked * misses its goal.",
         "",
@@ -158,22 +165,32 @@ def main():
     p.add_argument("--iva-t-end", type=float, default=1.2)
     p.add_argument("--quick", action="store_true")
     p.add_argument("--out", help="report folder (default experiments/results)")
+    p.add_argument("--buffer", nargs=2, type=float, metavar=("M_W_KG", "F_F_N"),
+                   help="the design case with this counterweight mass [kg] and brake force [N] instead of Table 1's")
+    p.add_argument("--tag", default="", help="suffix of the results' file names (e.g. _buffer_900)")
     args = p.parse_args()
     enable_x64()
+    stem = STEM + args.tag
+    buffer = None
+    if args.buffer is not None:
+        check_finite("--buffer", np.asarray(args.buffer))
+        check_positive("--buffer", np.asarray(args.buffer))
+        buffer = BufferDevice(counterweight_mass_kg=args.buffer[0], brake_force_N=args.buffer[1])
     if args.quick:
         args.levels, args.cases, args.variants = ["ale"], ["design"], ["default", "save_4"]
         args.design_t_end = 0.1
     beta = C.CALIBRATED_CABLE_DAMPING_S if args.beta is None else args.beta
     out = _report.output_dir(args.out, args.quick)
-    old = out / f"{STEM}.json"
+    old = out / f"{stem}.json"
     rows = []
     if old.exists():
         prev = json.loads(old.read_text())
-        if prev.get("beta_s") == beta and prev.get("default_mesh") == [N_SPAN, N_FINE]:
+        if prev.get("beta_s") == beta and prev.get("default_mesh") == [N_SPAN, N_FINE] and prev.get("buffer") == args.buffer:
             rows = prev.get("rows", [])
     data = _report.start(precision=_report.precision())
     data["beta_s"] = beta
     data["default_mesh"] = [N_SPAN, N_FINE]
+    data["buffer"] = args.buffer
     data["rows"] = rows
     done = {(r["case"], r["level"], r["variant"]) for r in rows}
     iva_kwargs = iva_passive_kwargs() if "iva" in args.cases else {}
@@ -183,12 +200,12 @@ def main():
             for variant in args.variants:
                 if (case, level, variant) in done:
                     continue
-                row = one_run(case, level, variant, beta, t_end, iva_kwargs)
+                row = one_run(case, level, variant, beta, t_end, iva_kwargs, buffer)
                 rows.append(row)
                 print(json.dumps({k: row[k] for k in ("case", "level", "variant", *KEYS, "stopped", "num_steps", "wall_s")}), flush=True)
-                _report.save(data, out, STEM)
-                write_md(data, out / f"{STEM}.md")
-    _report.finish(data, out, STEM, write_md)
+                _report.save(data, out, stem)
+                write_md(data, out / f"{stem}.md")
+    _report.finish(data, out, stem, write_md)
 
 
 if __name__ == "__main__":

@@ -17,6 +17,7 @@ Writes ``design_feasibility.{json,md,png}``. Usage:
     python experiments/design_feasibility.py                     # 7 x 4 grid, rigid + full (~15 min)
     python experiments/design_feasibility.py --quick             # 2 x 2, ale, 0.3 s; experiments/out/
     python experiments/design_feasibility.py --levels full --m-w 900 950 --f-f 3.2e5
+    python experiments/design_feasibility.py --levels full --span-elements 48 --fine-elements 32 --tag _fine_x2
 """
 
 from __future__ import annotations
@@ -30,15 +31,18 @@ import numpy as np
 
 from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.landing import run_landing
+from jaxcable.arresting.passive import DEFAULT_FINE_ELEMENTS as N_FINE
+from jaxcable.arresting.passive import DEFAULT_SPAN_ELEMENTS as N_SPAN
 from jaxcable.arresting.passive import LandingCriteria
 from jaxcable.core.config import enable_x64
+from jaxcable.core.validation import check_positive
 
 STEM = "design_feasibility"
 
 
-def one_cell(level, m_w, f_f, t_end):
+def one_cell(level, m_w, f_f, t_end, **mesh):
     t0 = time.perf_counter()
-    run = run_landing(level, buffer=BufferDevice(counterweight_mass_kg=m_w, brake_force_N=f_f), t_end_s=t_end)
+    run = run_landing(level, buffer=BufferDevice(counterweight_mass_kg=m_w, brake_force_N=f_f), t_end_s=t_end, **mesh)
     o = run.outputs
     keys = ("z_max_m", "a_max_g", "sigma_max_mpa", "stopped", "solve_ok", "criteria_met", "energy_budget_error")
     row = {k: (bool(o[k]) if isinstance(o[k], (bool, np.bool_)) else float(o[k])) for k in keys}
@@ -50,8 +54,11 @@ def write_md(data, path, stem=STEM):
     lines = ["# Buffers on the design case: which meet every criterion", "", *_report.header(data), ""]
     lines += [
         (
-            f"Design case (Table 1: centre, vertical, 20 m/s), {data['t_end_s']:g} s, each level's default mesh, "
-            f"solver and calibrated cable damping. Criteria: z_max < {c['z_max_m']:g} m, a_max (CFC 60) < "
+            f"Design case (Table 1: centre, vertical, 20 m/s), {data['t_end_s']:g} s, "
+            + (f"{data['mesh'][0]} span elements ({data['mesh'][1]} fine) at the ale and full levels, "
+               if data.get("mesh", [N_SPAN, N_FINE]) != [N_SPAN, N_FINE] else "each level's default mesh, ")
+            + "each level's solver and calibrated cable damping. "
+            f"Criteria: z_max < {c['z_max_m']:g} m, a_max (CFC 60) < "
             f"{c['a_max_g']:g} g, sigma_max < {c['sigma_max_mpa']:g} MPa, stopped. A cell meeting all is in bold."
         ),
         "",
@@ -115,6 +122,8 @@ def main():
     p.add_argument("--out", default=None)
     p.add_argument("--replot", action="store_true", help="redraw the figure and the table from the saved JSON")
     p.add_argument("--tag", default="", help="suffix of the results' file names (e.g. _fine)")
+    p.add_argument("--span-elements", type=int, default=N_SPAN, help=f"elements per arresting span (default {N_SPAN})")
+    p.add_argument("--fine-elements", type=int, default=N_FINE, help=f"of them in the fine region under the hook (default {N_FINE})")
     args = p.parse_args()
     stem = STEM + args.tag
     if args.replot:
@@ -128,14 +137,18 @@ def main():
     enable_x64()
     out = _report.output_dir(args.out, args.quick)
     crit = LandingCriteria()
+    check_positive("--span-elements", args.span_elements)
+    check_positive("--fine-elements", args.fine_elements)
+    mesh = {} if (args.span_elements, args.fine_elements) == (N_SPAN, N_FINE) else {
+        "n_span_elements": args.span_elements, "n_fine": args.fine_elements}
     data = _report.start(
-        t_end_s=args.t_end, levels=args.levels, rows=[],
+        t_end_s=args.t_end, levels=args.levels, rows=[], mesh=[args.span_elements, args.fine_elements],
         criteria={"z_max_m": float(crit.z_max_m), "a_max_g": float(crit.a_max_g), "sigma_max_mpa": float(crit.sigma_max_mpa)},
     )  # fmt: skip
     for level in args.levels:
         for m_w in args.m_w:
             for f_f in args.f_f:
-                row = one_cell(level, m_w, f_f, args.t_end)
+                row = one_cell(level, m_w, f_f, args.t_end, **(mesh if level != "rigid" else {}))
                 data["rows"].append(row)
                 print(row, flush=True)
                 _report.save(data, out, stem)
