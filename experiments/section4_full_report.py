@@ -1,0 +1,127 @@
+"""Section IV at the full level: the report of the resumable sweeps' CSVs, however far they got (not a
+test).
+
+The 3 x 100 two-phase cases at the full level take hours on a 2-core CPU (about a minute a case once
+compiled), so they run as resumable sweeps, one CSV a scenario::
+
+    jaxcable sweep --phase full --fidelity full --cable-damping calibrated --scenario I --n 100 \\
+        --batch-size 4 --out experiments/results/sweep_two_phase_full_calibrated_I_n100.csv
+
+(rerun the same command to go on after an interruption). This script reads the CSVs that exist and
+writes, for the cases done so far, the summary in the form of Tables 5-7 and 9 (``jaxcable sweep``'s
+own summary), Fig 21's criteria over the landing plane, and the mechanism behind the a_max failures:
+a_max against the capture's distance from the frame's centre, beside the design case's value at the
+same level (the centred capture). Writes ``section4_full.{json,md}``, ``section4_full_plane_<S>.png``
+and ``section4_full_offset.png``. Usage::
+
+    python experiments/section4_full_report.py
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import _report
+import numpy as np
+
+from jaxcable.arresting.passive import LandingCriteria
+from jaxcable.arresting.sweep import CAPTURED_PREFIX, summarize_sweep
+from jaxcable.arresting.sweep_plots import plot_landing_plane
+from jaxcable.cli.sweep import summary_markdown
+from jaxcable.studies.sweep import read_sweep_csv
+
+STEM = "section4_full"
+CSV = "sweep_two_phase_full_calibrated_{}_n100.csv"
+
+
+def offsets(table):
+    x = np.asarray(table[CAPTURED_PREFIX + "x_m"], float)
+    y = np.asarray(table[CAPTURED_PREFIX + "y_m"], float)
+    return np.hypot(x, y), np.maximum(np.abs(x), np.abs(y))
+
+
+def plot_offset(tables, path, criteria=None):
+    """a_max (CFC 60) against the capture's largest coordinate offset max(|x|, |y|) from the frame's
+    centre, one colour per scenario; open markers where another criterion failed or the rocket was not
+    captured and stopped."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    criteria = LandingCriteria() if criteria is None else criteria
+    fig, ax = plt.subplots(figsize=(6.2, 4.2))
+    for (scenario, table), colour in zip(tables.items(), ("C0", "C1", "C2")):
+        _, off = offsets(table)
+        a = np.asarray(table["a_max_g"], float)
+        others = (np.asarray(table["z_ok"], bool) & np.asarray(table["sigma_ok"], bool) & np.asarray(table["stopped"], bool)
+                  & np.asarray(table["captured"], bool))  # fmt: skip
+        ax.plot(off[others], a[others], "o", color=colour, label=f"scenario {scenario} ({len(a)} cases)")
+        ax.plot(off[~others], a[~others], "o", color=colour, mfc="white")
+    ax.axhline(float(criteria.a_max_g), color="k", ls="--", lw=0.8, label="limit")
+    ax.set_xlabel("capture offset max(|x|, |y|) from the frame's centre [m]")
+    ax.set_ylabel("a_max (CFC 60) [g]")
+    ax.set_title("section IV, two-phase, full level")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def write_md(data, path):
+    L = ["# Section IV at the full level (two-phase sweeps, calibrated cable damping)", "", *_report.header(data), ""]
+    for entry in data["scenarios"].values():
+        L += [entry["markdown"], "", f"Rows: `experiments/results/{entry['csv']}`. ![plane]({entry['plane']})", ""]
+        L += ["a_max by capture offset max(|x|, |y|) [m]:", "", "| offset | cases | a_max min-max [g] | a_max met |",
+              "|---|---:|---|---:|"]  # fmt: skip
+        for row in entry["by_offset"]:
+            L.append(f"| {row['band']} | {row['n']} | {row['a_min']:.2f}-{row['a_max']:.2f} | {row['met']}/{row['n']} |")
+        L.append("")
+    L.append("![a_max against the capture offset](section4_full_offset.png)")
+    _report.write_lines(path, L)
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--scenarios", nargs="+", default=["I", "II", "III"], choices=["I", "II", "III"])
+    p.add_argument("--out", default=None)
+    args = p.parse_args()
+    out = _report.output_dir(args.out)
+    data = _report.start(scenarios={})
+    tables = {}
+    for scenario in args.scenarios:
+        csv = _report.RESULTS / CSV.format(scenario)
+        if not csv.exists():
+            continue
+        table = read_sweep_csv(csv)
+        if not len(table.get("case", [])):
+            continue
+        tables[scenario] = table
+        title = f"scenario {scenario}, two-phase, full level ({len(table['case'])} of 100 cases)"
+        plane = f"{STEM}_plane_{scenario}.png"
+        plot_landing_plane(table, out / plane, title)
+        _, off = offsets(table)
+        a = np.asarray(table["a_max_g"], float)
+        met = np.asarray(table["a_ok"], bool)
+        by_offset = []
+        for lo, hi in ((0.0, 5.0), (5.0, 10.0), (10.0, np.inf)):
+            m = (off >= lo) & (off < hi)
+            if m.any():
+                band = f"{lo:g}-{hi:g} m" if np.isfinite(hi) else f">= {lo:g} m"
+                by_offset.append({"band": band, "n": int(m.sum()), "a_min": float(a[m].min()), "a_max": float(a[m].max()),
+                                  "met": int(met[m].sum())})  # fmt: skip
+        summary = summarize_sweep(table)
+        data["scenarios"][scenario] = {
+            "csv": csv.name, "plane": plane, "n_cases": len(table["case"]), "by_offset": by_offset,
+            "success_rate": float(np.mean(np.asarray(table["success"], bool))),
+            "markdown": summary_markdown(summary, title),
+        }  # fmt: skip
+    if not tables:
+        raise SystemExit(f"no sweep CSV found in {_report.RESULTS} ({CSV.format('<S>')}); run the sweeps first")
+    plot_offset(tables, out / f"{STEM}_offset.png")
+    _report.finish(data, out, STEM, write_md)
+
+
+if __name__ == "__main__":
+    main()
