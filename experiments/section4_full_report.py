@@ -11,7 +11,9 @@ compiled), so they run as resumable sweeps, one CSV a scenario::
 writes, for the cases done so far, the summary in the form of Tables 5-7 and 9 (``jaxcable sweep``'s
 own summary), Fig 21's criteria over the landing plane, and the mechanism behind the a_max failures:
 a_max against the capture's distance from the frame's centre, beside the design case's value at the
-same level (the centred capture). Writes ``section4_full.{json,md}``, ``section4_full_plane_<S>.png``
+same level (the centred capture), and the same cases at the rigid level (the rigid level's sweep is
+run here, about 3 min for 100 cases with its compilation, its rows in the git-ignored
+``experiments/out/section4_full/``): which verdicts the full level changes. Writes ``section4_full.{json,md}``, ``section4_full_plane_<S>.png``
 and ``section4_full_offset.png``. Usage::
 
     python experiments/section4_full_report.py
@@ -24,8 +26,9 @@ import argparse
 import _report
 import numpy as np
 
+from jaxcable.arresting.calibration import CALIBRATED_CABLE_DAMPING_S
 from jaxcable.arresting.passive import LandingCriteria
-from jaxcable.arresting.sweep import CAPTURED_PREFIX, summarize_sweep
+from jaxcable.arresting.sweep import CAPTURED_PREFIX, run_qmc_sweep, summarize_sweep
 from jaxcable.arresting.sweep_plots import plot_landing_plane
 from jaxcable.cli.sweep import summary_markdown
 from jaxcable.studies.sweep import read_sweep_csv
@@ -40,10 +43,20 @@ def offsets(table):
     return np.hypot(x, y), np.maximum(np.abs(x), np.abs(y))
 
 
-def plot_offset(tables, path, criteria=None):
+def rigid_rows(scenario, cases, n=100):
+    """The rigid level's two-phase rows of ``cases`` (same Halton cases, seed 0, calibrated damping)."""
+    rows_dir = _report.output_dir(quick=True, sub=STEM)
+    table = run_qmc_sweep(scenario, n, phase="full", fidelity="rigid", out=rows_dir / f"rigid_{scenario}_n{n}.csv",
+                          seed=0, cable_damping_s=CALIBRATED_CABLE_DAMPING_S, progress=False)  # fmt: skip
+    index = {int(c): i for i, c in enumerate(np.asarray(table["case"], int))}
+    pick = np.array([index[int(c)] for c in cases])
+    return {k: np.asarray(v)[pick] for k, v in table.items()}
+
+
+def plot_offset(tables, path, criteria=None, rigid=None):
     """a_max (CFC 60) against the capture's largest coordinate offset max(|x|, |y|) from the frame's
     centre, one colour per scenario; open markers where another criterion failed or the rocket was not
-    captured and stopped."""
+    captured and stopped; the same cases at the rigid level as grey crosses."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -58,6 +71,9 @@ def plot_offset(tables, path, criteria=None):
                   & np.asarray(table["captured"], bool))  # fmt: skip
         ax.plot(off[others], a[others], "o", color=colour, label=f"scenario {scenario} ({len(a)} cases)")
         ax.plot(off[~others], a[~others], "o", color=colour, mfc="white")
+        if rigid and scenario in rigid:
+            ax.plot(off, np.asarray(rigid[scenario]["a_max_g"], float), "x", color="0.5",
+                    label="the same cases, rigid level" if colour == "C0" else None)  # fmt: skip
     ax.axhline(float(criteria.a_max_g), color="k", ls="--", lw=0.8, label="limit")
     ax.set_xlabel("capture offset max(|x|, |y|) from the frame's centre [m]")
     ax.set_ylabel("a_max (CFC 60) [g]")
@@ -78,6 +94,12 @@ def write_md(data, path):
         for row in entry["by_offset"]:
             L.append(f"| {row['band']} | {row['n']} | {row['a_min']:.2f}-{row['a_max']:.2f} | {row['met']}/{row['n']} |")
         L.append("")
+        if "rigid" in entry:
+            r = entry["rigid"]
+            L += [(f"The same {r['n']} cases at the rigid level: {r['success']} successful ({r['a_ok']} meet a_max), "
+                   f"at the full level {r['success_full']}; a_max full / rigid {r['ratio_min']:.3f}-{r['ratio_max']:.3f} "
+                   f"(mean {r['ratio_mean']:.3f}); verdicts: both succeed {r['both']}, rigid only {r['rigid_only']}, "
+                   f"full only {r['full_only']}, neither {r['neither']}."), ""]  # fmt: skip
     L.append("![a_max against the capture offset](section4_full_offset.png)")
     _report.write_lines(path, L)
 
@@ -86,10 +108,11 @@ def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--scenarios", nargs="+", default=["I", "II", "III"], choices=["I", "II", "III"])
     p.add_argument("--out", default=None)
+    p.add_argument("--no-rigid", action="store_true", help="skip the rigid level's rows of the same cases")
     args = p.parse_args()
     out = _report.output_dir(args.out)
     data = _report.start(scenarios={})
-    tables = {}
+    tables, rigid = {}, {}
     for scenario in args.scenarios:
         csv = _report.RESULTS / CSV.format(scenario)
         if not csv.exists():
@@ -117,9 +140,20 @@ def main():
             "success_rate": float(np.mean(np.asarray(table["success"], bool))),
             "markdown": summary_markdown(summary, title),
         }  # fmt: skip
+        if not args.no_rigid:
+            rig = rigid[scenario] = rigid_rows(scenario, table["case"])
+            ok_r, ok_f = np.asarray(rig["success"], bool), np.asarray(table["success"], bool)
+            ratio = a / np.asarray(rig["a_max_g"], float)
+            data["scenarios"][scenario]["rigid"] = {
+                "n": len(ok_r), "success": int(ok_r.sum()), "success_full": int(ok_f.sum()),
+                "a_ok": int(np.asarray(rig["a_ok"], bool).sum()), "ratio_min": float(ratio.min()),
+                "ratio_max": float(ratio.max()), "ratio_mean": float(ratio.mean()), "both": int((ok_r & ok_f).sum()),
+                "rigid_only": int((ok_r & ~ok_f).sum()), "full_only": int((~ok_r & ok_f).sum()),
+                "neither": int((~ok_r & ~ok_f).sum()),
+            }  # fmt: skip
     if not tables:
         raise SystemExit(f"no sweep CSV found in {_report.RESULTS} ({CSV.format('<S>')}); run the sweeps first")
-    plot_offset(tables, out / f"{STEM}_offset.png")
+    plot_offset(tables, out / f"{STEM}_offset.png", rigid=rigid)
     _report.finish(data, out, STEM, write_md)
 
 
