@@ -31,6 +31,7 @@ from jaxcable.arresting.passive import LandingCriteria
 from jaxcable.arresting.sweep import CAPTURED_PREFIX, run_qmc_sweep, summarize_sweep
 from jaxcable.arresting.sweep_plots import plot_landing_plane
 from jaxcable.cli.sweep import summary_markdown
+from jaxcable.core.config import enable_x64
 from jaxcable.studies.sweep import read_sweep_csv
 
 STEM = "section4_full"
@@ -110,8 +111,9 @@ def main():
     p.add_argument("--out", default=None)
     p.add_argument("--no-rigid", action="store_true", help="skip the rigid level's rows of the same cases")
     args = p.parse_args()
+    enable_x64()  # the sweeps ran in float64, as every landing scene does
     out = _report.output_dir(args.out)
-    data = _report.start(scenarios={})
+    data = _report.start(precision=_report.precision(), scenarios={})
     tables, rigid = {}, {}
     for scenario in args.scenarios:
         csv = _report.RESULTS / CSV.format(scenario)
