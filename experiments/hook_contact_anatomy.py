@@ -43,7 +43,7 @@ from jaxcable.arresting import calibration as C
 from jaxcable.arresting.cable_sets import _capsules
 from jaxcable.arresting.landing import level_solver_settings
 from jaxcable.arresting.passive import PassiveLandingScene, passive_landing_scene
-from jaxcable.components.contact import _capsule_contact
+from jaxcable.components.contact import capsule_contact
 from jaxcable.core import simulate
 from jaxcable.core.config import enable_x64
 
@@ -90,7 +90,7 @@ def decompose(scene, state, t, cable):
     for h in range(4):
         for k in range(2):
             for e in range(r1.shape[1]):
-                c = _capsule_contact(law, caps_p[h, k, 0], caps_p[h, k, 1], cab.hook_radius_m, caps_v[h, k, 0],
+                c = capsule_contact(law, caps_p[h, k, 0], caps_p[h, k, 1], cab.hook_radius_m, caps_v[h, k, 0],
                                      caps_v[h, k, 1], r1[cable, e], r2[cable, e], cab.cable_radius_m, a1[cable, e],
                                      a2[cable, e])  # fmt: skip
                 if float(c.penetration) <= 0.0:

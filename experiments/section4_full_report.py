@@ -38,10 +38,11 @@ STEM = "section4_full"
 CSV = "sweep_two_phase_full_calibrated_{}_n100.csv"
 
 
-def offsets(table):
+def capture_offset(table):
+    """Each case's capture offset max(|x|, |y|) from the frame's centre [m]."""
     x = np.asarray(table[CAPTURED_PREFIX + "x_m"], float)
     y = np.asarray(table[CAPTURED_PREFIX + "y_m"], float)
-    return np.hypot(x, y), np.maximum(np.abs(x), np.abs(y))
+    return np.maximum(np.abs(x), np.abs(y))
 
 
 def rigid_rows(scenario, cases, n=100):
@@ -66,7 +67,7 @@ def plot_offset(tables, path, criteria=None, rigid=None):
     criteria = LandingCriteria() if criteria is None else criteria
     fig, ax = plt.subplots(figsize=(6.2, 4.2))
     for (scenario, table), colour in zip(tables.items(), ("C0", "C1", "C2")):
-        _, off = offsets(table)
+        off = capture_offset(table)
         a = np.asarray(table["a_max_g"], float)
         others = (np.asarray(table["z_ok"], bool) & np.asarray(table["sigma_ok"], bool) & np.asarray(table["stopped"], bool)
                   & np.asarray(table["captured"], bool))  # fmt: skip
@@ -126,7 +127,7 @@ def main():
         title = f"scenario {scenario}, two-phase, full level ({len(table['case'])} of 100 cases)"
         plane = f"{STEM}_plane_{scenario}.png"
         plot_landing_plane(table, out / plane, title)
-        _, off = offsets(table)
+        off = capture_offset(table)
         a = np.asarray(table["a_max_g"], float)
         met = np.asarray(table["a_ok"], bool)
         by_offset = []
