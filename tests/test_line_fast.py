@@ -269,5 +269,23 @@ def test_unrolled_solvers():
 
     e1, e2 = float(jnp.max(jnp.abs(rk4(0.05) - ref))), float(jnp.max(jnp.abs(rk4(0.025) - ref)))
     assert 13.0 < e1 / e2 < 19.0, (e1, e2)
+    # RK4(substeps=4) at 4 dt takes RK4's steps of dt inside each loop step: the same states at the
+    # loop's step ends (the save grid on multiples of 4 dt), to round-off; 4x fewer loop steps
+    grid = jnp.linspace(0.0, 2.0, 11)
+
+    def solve(solver, dt):
+        s = diffrax.diffeqsolve(
+            diffrax.ODETerm(vf), solver, 0.0, 2.0, dt, y0, saveat=diffrax.SaveAt(ts=grid),
+            stepsize_controller=diffrax.ConstantStepSize(), max_steps=200,
+        )  # fmt: skip
+        return s.ys, int(s.stats["num_steps"])
+
+    (ys1, n1), (ys4, n4) = solve(RK4(), 0.025), solve(RK4(substeps=4), 0.1)
+    assert (n1, n4) == (80, 20)
+    np.testing.assert_allclose(ys4, ys1, rtol=0, atol=1e-13)
+    assert float(jnp.max(jnp.abs(ys4[-1] - ref))) == pytest.approx(e2, rel=1e-6)
+    for bad in (0, -2, 1.5, True):
+        with pytest.raises(ValueError, match="substeps"):
+            RK4(substeps=bad)
     with pytest.raises(ValueError, match="dt0"):
         jaxcable.simulate(_pull_scene(_sagging_guess(SEGMENTS + 1)), 0.01, solver="rk4")
