@@ -29,6 +29,9 @@ def problem():
     )
 
 
+# slow tier: 95 s on 2 cores; the design objective's vmapped batch against one vmap is also checked
+# in tests/test_design_chunk.py (slow), and the sweeps' rows against single landings in the default tier
+@pytest.mark.slow
 def test_ale_batch_matches_independent_landings(problem):
     x = paper_start(problem)
     _, aux = objective_value(problem, problem.space.to_unconstrained(x))

@@ -168,6 +168,9 @@ def test_histories_agree_with_rows_and_descend_at_h_over_tc(cli_run):
     assert all(Path(p).stat().st_size > 10_000 for p in plots)
 
 
+# slow tier: 90-220 s on 2 cores; the rigid level's rows = single landings stays in the default tier,
+# and the ale level's vmapped passive phase is checked against single runs in tests/arresting/test_stiff.py
+@pytest.mark.slow
 def test_ale_level_rows_equal_single_two_phase_landings(tmp_path):
     """At the ale level each case is built on the host (tracking phase, then the cables meshed from
     the captured state) and the passive phases run as one vmapped batch: the rows equal

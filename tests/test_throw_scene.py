@@ -45,6 +45,9 @@ def _grad_and_fd(f, x0, h):
     return float(g), float(fd)
 
 
+# slow tier: 110-170 s on 2 cores; test_gradient_with_ground_is_finite_and_close (below) keeps a
+# central-difference check of the flight in the default tier, tests/test_line_design.py another
+@pytest.mark.slow
 def test_gradients_match_central_differences():
     """d range / d (rope drag coefficient) and d range / d (launch angle), float64, rope in the air.
 
@@ -129,6 +132,8 @@ def test_bad_rocket_and_solver_inputs(scene):
         jaxcable.simulate(scene, 10.0, icoeff=0.0)
 
 
+# slow tier: 65-95 s on 2 cores (three flights compiled); a qualitative ordering of the pull-out models
+@pytest.mark.slow
 def test_pullout_models_order_the_range():
     """Momentum flux costs range; a box that resists more costs more; none costs nothing."""
     ranges = {}

@@ -184,6 +184,9 @@ def test_cable_model_is_a_component_choice():
         passive_landing_scene("1dof")
 
 
+# slow tier: 110-185 s on 2 cores; the default tier keeps gradients against central differences of the
+# design objective (tests/test_design.py), the brake profile and the two-phase forward mode
+@pytest.mark.slow
 def test_smooth_outputs_gradients_match_finite_differences():
     """d(z_max, a_max, sigma_max)/d(m_w, F_f) through the diffrax solve (rigid level), float64,
     against central differences; the soft maxima are within their stated bias of the hard ones."""

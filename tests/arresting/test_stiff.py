@@ -90,7 +90,8 @@ def test_blocks_equal_the_dense_jacobian_of_the_cable_forces(mass_scale, rtol):
             np.testing.assert_allclose(np.asarray(blocks[zz])[c], cols_z[c, :, c], atol=rtol * np.abs(cols_z).max())
 
 
-@pytest.mark.parametrize("h", [1e-4, 2e-3])
+# h = 2e-3 s in the slow tier (each case 80-120 s on 2 cores; the same code path at another step)
+@pytest.mark.parametrize("h", [1e-4, pytest.param(2e-3, marks=pytest.mark.slow)])
 def test_structured_step_equals_the_dense_reference(h):
     """One step of the same method with the same ``J``, solved densely (LU of the assembled
     ``beta I - J``) and with the block-tridiagonal bordered solve: the same new state and the same
