@@ -40,7 +40,7 @@ from jaxcable.arresting.uncertainty import (
 from jaxcable.arresting.sweep import SAVE_SPACING_S, case_fn_for, run_qmc_sweep, summarize_sweep, summary_markdown
 from jaxcable.arresting.sweep_plots import plot_histories, plot_landing_plane
 from jaxcable.cli.sweep import sweep_main
-from jaxcable.studies.sweep import AbstractCaseFunction, process_indices, read_sweep_csv, run_sweep
+from jaxcable.studies.sweep import AbstractCaseFunction, process_indices, read_sidecar, read_sweep_csv, run_sweep
 
 TESTS = Path(__file__).resolve().parent
 # The physics sweep of these tests: 7 cases (not a multiple of 3 or 4, so the last chunk is padded
@@ -283,6 +283,24 @@ def test_refuses_to_resume_a_different_sweep(reference, tmp_path):
     with pytest.raises(ValueError, match="sidecar"):
         run_qmc_sweep(out=stray, progress=False, **SWEEP)
     assert sweep_main(["--out", str(out), "--n", "7", "--seed", "2", "--t-end", "0.6", "--json"]) == 2
+
+
+def test_an_interrupted_sweep_keeps_its_n(reference, tmp_path):
+    """A run that dies after a chunk (here: its on_chunk raises) has recorded its n in the sidecar,
+    so that a resume with fewer cases is refused as it is after a finished run."""
+    out = tmp_path / "interrupted.csv"
+
+    class Interrupted(Exception):
+        pass
+
+    def interrupt(chunk):
+        raise Interrupted
+
+    with pytest.raises(Interrupted):
+        run_qmc_sweep(out=out, progress=False, on_chunk=interrupt, **SWEEP)
+    assert read_sidecar(out)["n"] == SWEEP["n"]
+    with pytest.raises(ValueError, match=f"n = {SWEEP['n'] - 1} < {SWEEP['n']}"):
+        run_qmc_sweep(out=out, progress=False, **dict(SWEEP, n=SWEEP["n"] - 1))
 
 
 def test_cli_json(reference, tmp_path, capsys):

@@ -428,6 +428,13 @@ def run_qmc_sweep(
     stored_n = (read_sidecar(out) or {}).get("n")
     if stored_n is not None and n < stored_n:
         raise ValueError(f"{out} holds a sweep of n = {stored_n}; resuming with n = {n} < {stored_n} is refused")
+
+    def record_n(chunk=None):
+        # after every chunk, so that a run killed midway leaves its n for the next resume's check
+        update_sidecar(out, n=max(int(n), int(read_sidecar(out).get("n") or 0)))
+        if chunk is not None and on_chunk is not None:
+            on_chunk(chunk)
+
     result = run_sweep(
         case_fn,
         samples,
@@ -437,9 +444,9 @@ def run_qmc_sweep(
         identity=identity,
         devices=devices,
         progress=progress,
-        on_chunk=on_chunk,
+        on_chunk=record_n,
     )
-    update_sidecar(out, n=max(int(n), int(read_sidecar(out).get("n") or 0)))
+    record_n()
     return result
 
 
