@@ -164,8 +164,9 @@ class RK4(UnrolledERK):
                 fs.append(terms.vf(ta + float(self.tableau.c[i]) * h, _combine(y, row, fs, h), args))
             y = _combine(y, self.tableau.b_sol, fs, h)
             f = terms.vf(t1 if j == self.substeps - 1 else ta + h, y, args)
-            # a barrier between substeps: without it XLA fuses the whole chain and recomputes shared
-            # stages inside each consumer (measured: 8 substeps 13x slower than 8 loop steps on a CPU)
+            # a barrier between substeps keeps XLA from fusing across them, so each substep compiles
+            # like one step (the GPU figures in docs/benchmarks.md were measured with it; on a CPU
+            # 8 substeps were 11x slower than 8 loop steps with it and without it)
             y, f = jax.lax.optimization_barrier((y, f))
         dense_info = self._dense_info(t1 - t0, y0, y, [f0], f)
         return y, None, dense_info, f, diffrax.RESULTS.successful
