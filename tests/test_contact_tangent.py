@@ -58,6 +58,9 @@ def _max_rel(a, b):
     return max(float(np.max(np.abs(x - z))) for x, z in zip(la, lb) if x.size) / scale
 
 
+# slow tier: 100-120 s on 2 cores; test_too_few_tangent_pairs_break_the_derivative (below) keeps the
+# sparse derivative's failure mode in the default tier
+@pytest.mark.slow
 def test_sparse_contact_derivative_equals_all_pairs_and_finite_differences(mid_landing):
     base, y, direction = mid_landing
     assert base.cables.contact_tangent_pairs == 48  # the default

@@ -75,6 +75,8 @@ def test_ale_problem_without_scenes_is_refused(problem):
         DesignProblem(space=problem.space, captures=problem.captures, buffer=problem.buffer, layout=problem.layout, fidelity="ale")
 
 
+# slow tier: 70-100 s on 2 cores (the ale design problem compiled once for this test alone)
+@pytest.mark.slow
 def test_ale_cases_report_whether_the_contact_derivative_is_exact(problem):
     """Each ale case reports whether at most ``contact_tangent_pairs`` contact pairs touched (the
     sparse contact derivative is exact then); the optimisers' history warns when one did not."""

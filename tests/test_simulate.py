@@ -65,6 +65,9 @@ def test_rigid_landing_same_gradient(rigid_scene):
     np.testing.assert_allclose(float(g_after), float(g_in), rtol=1e-7)
 
 
+# slow tier: 95-145 s on 2 cores (three compiled programs of a rope flight, one of them reverse mode);
+# the default tier keeps probes inside against after the solve on the rigid landing (above)
+@pytest.mark.slow
 def test_unreached_saves_stay_inf_and_gradient_finite():
     # a short rope flight that ends at the ground event before the last saved times: forcing
     # probes_after=True must keep those histories inf, and the gradient finite

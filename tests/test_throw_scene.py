@@ -85,6 +85,9 @@ def test_gradient_with_ground_is_finite_and_close(scene):
     assert abs(g - fd) <= 0.1 * abs(fd), (g, fd)
 
 
+# slow tier: 45-55 s on 2 cores; vmap against single runs stays in the default tier for the sweeps'
+# rows (tests/test_sweep.py, tests/test_sweep_two_phase.py)
+@pytest.mark.slow
 def test_vmap_over_launch_angles_matches_single_runs(scene):
     angles = jnp.deg2rad(jnp.array([25.0, 40.0, 55.0]))
     batched = jax.vmap(lambda a: jaxcable.simulate(with_angle(scene, a), **SIM).outputs)(angles)
