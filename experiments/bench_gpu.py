@@ -253,7 +253,7 @@ def write_md(res, path):
 
         for r in res["peers"]:
             lines.append(
-                f"| {r['model']} | {r['cases']} | {r['dt_s']:g} | {r.get('substeps', 1)} | {r.get('loop_steps', r.get('steps_per_case'))} | "
+                f"| {r['model']} | {r['cases']} | {r['dt_s']:g} | {r['substeps']} | {r['loop_steps']} | "
                 f"{r['first_s']:.1f} | {r['run_s']:.3f} | {r['cases_per_s']:.1f} | {r['throughput_over_moordyn']:.1f}x | "
                 f"{e(r, 'max_pos_err_m_vs_dt_over_8')} | {e(r, 'max_pos_diff_m_vs_substeps_1')} | {r['all_successful']} |"
             )

@@ -431,7 +431,8 @@ def run_qmc_sweep(
 
     def record_n(chunk=None):
         # after every chunk, so that a run killed midway leaves its n for the next resume's check
-        update_sidecar(out, n=max(int(n), int(read_sidecar(out).get("n") or 0)))
+        # (n >= the stored n: checked above)
+        update_sidecar(out, n=int(n))
         if chunk is not None and on_chunk is not None:
             on_chunk(chunk)
 

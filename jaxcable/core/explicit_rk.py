@@ -78,22 +78,26 @@ class UnrolledERK(diffrax.AbstractSolver):
         return terms.vf(t0, y0, args)
 
     def step(self, terms, t0, t1, y0, args, solver_state, made_jump):
-        tab = self.tableau
         f0 = jax.lax.cond(made_jump, lambda: terms.vf(t0, y0, args), lambda: solver_state)
         h = t1 - t0
+        y1, f1, fs = self._stages(terms, t0, h, t1, y0, f0, args)
+        y_error = _combine(None, self.tableau.b_error, fs, h) if np.any(self.tableau.b_error != 0.0) else None
+        dense_info = self._dense_info(h, y0, y1, fs, f1)
+        return y1, y_error, dense_info, f1, diffrax.RESULTS.successful
+
+    def _stages(self, terms, t0, h, t1, y0, f0, args):
+        """One step of ``h`` from ``(t0, y0)`` with ``f0 = f(t0, y0)``, ending at ``t1``:
+        ``(y1, f(t1, y1), the stages' derivatives)``."""
+        tab = self.tableau
         fs = [f0]
         y_stage = y0
         for i, row in enumerate(tab.a_lower):
             y_stage = _combine(y0, row, fs, h)
             fs.append(terms.vf(t0 + float(tab.c[i]) * h, y_stage, args))
         if tab.fsal:
-            y1, f1 = y_stage, fs[-1]
-        else:
-            y1 = _combine(y0, tab.b_sol, fs, h)
-            f1 = terms.vf(t1, y1, args)
-        y_error = _combine(None, tab.b_error, fs, h) if np.any(tab.b_error != 0.0) else None
-        dense_info = self._dense_info(h, y0, y1, fs, f1)
-        return y1, y_error, dense_info, f1, diffrax.RESULTS.successful
+            return y_stage, fs[-1], fs
+        y1 = _combine(y0, tab.b_sol, fs, h)
+        return y1, terms.vf(t1, y1, args), fs
 
     def _dense_info(self, h, y0, y1, fs, f1):
         def scale(f):
@@ -159,11 +163,7 @@ class RK4(UnrolledERK):
         y, f = y0, f0
         for j in range(self.substeps):
             ta = t0 + j * h
-            fs = [f]
-            for i, row in enumerate(self.tableau.a_lower):
-                fs.append(terms.vf(ta + float(self.tableau.c[i]) * h, _combine(y, row, fs, h), args))
-            y = _combine(y, self.tableau.b_sol, fs, h)
-            f = terms.vf(t1 if j == self.substeps - 1 else ta + h, y, args)
+            y, f, _ = self._stages(terms, ta, h, t1 if j == self.substeps - 1 else ta + h, y, f, args)
             # a barrier between substeps keeps XLA from fusing across them, so each substep compiles
             # like one step (the GPU figures in docs/benchmarks.md were measured with it; on a CPU
             # 8 substeps were 11x slower than 8 loop steps with it and without it)
