@@ -1,6 +1,19 @@
 """Test configuration: float64 physics for every test (the package itself never flips it on import),
 one on-disk compilation cache for the whole run, and compiled code released when a worker holds too
-much of it, and the longest test files first.
+much of it, the longest test files first, and XLA's backend at optimisation level 0.
+
+**XLA optimisation level.** Most tests compile more than they run (short solves of small scenes),
+and compiling is cheaper with XLA's backend (LLVM) at optimisation level 0
+(``XLA_FLAGS=--xla_backend_optimization_level=0``). Measured on 2 cores, the machine's other core
+busy with the same background job throughout, one process each: ``tests/test_segments.py`` with
+``tests/arresting/test_cables.py`` 171 s -> 143 s, ``tests/arresting/test_stiff.py`` with
+``tests/test_sweep_two_phase.py`` 399 s -> 340 s; LLVM's expensive passes alone turned off
+(``--xla_llvm_disable_expensive_passes=true``): 434 s, no gain. The level changes how fast the
+compiled code runs, not what it computes (the suite passes at both, with the same tolerances). The
+flag is appended to ``XLA_FLAGS`` for this process and everything it starts (workers, command
+lines, notebook kernels), unless ``XLA_FLAGS`` already names a backend optimisation level or
+``JAXCABLE_TEST_XLA_OPTIMISE=1`` asks for the default (as users run it). Benchmarks never run
+under it (they are scripts in ``experiments/``, not tests).
 
 **Compilation cache.** Every process of a run (the pytest-xdist workers, the command lines the
 tests start, the notebooks' kernels) reads and writes one folder of JAX's persistent compilation
@@ -38,6 +51,11 @@ import tempfile
 import warnings
 
 os.environ.setdefault("MPLBACKEND", "Agg")
+
+TEST_XLA_FLAG = "--xla_backend_optimization_level=0"
+"""Appended to ``XLA_FLAGS`` before JAX starts its CPU client (module docstring)."""
+if "xla_backend_optimization_level" not in os.environ.get("XLA_FLAGS", "") and os.environ.get("JAXCABLE_TEST_XLA_OPTIMISE") != "1":
+    os.environ["XLA_FLAGS"] = f"{os.environ.get('XLA_FLAGS', '')} {TEST_XLA_FLAG}".strip()
 
 import jax  # noqa: E402
 import pytest  # noqa: E402

@@ -47,7 +47,7 @@ TESTS = Path(__file__).resolve().parent
 # in both the 1-device and the 4-device run), 0.6 s after capture (the rocket is still descending:
 # ~300-430 steps per case at the rigid level).
 SWEEP = dict(scenario="I", n=7, batch_size=3, t_end_s=0.6)
-FOUR_DEVICES = dict(XLA_FLAGS="--xla_force_host_platform_device_count=4", JAX_PLATFORMS="cpu")
+FOUR_DEVICES = dict(XLA_FLAGS=f"{os.environ.get('XLA_FLAGS', '')} --xla_force_host_platform_device_count=4".strip(), JAX_PLATFORMS="cpu")
 
 
 def _env(**extra):

@@ -443,6 +443,9 @@ def test_two_body_axial_oscillation():
     assert np.max(np.abs(energy / energy[0] - 1.0)) < 1e-6
 
 
+# slow tier: 45-55 s on 2 cores (the Kane path's tangents compiled); the default tier keeps the
+# free-body path against closed forms (the torque-free body, the free fall of the flexible rocket)
+@pytest.mark.slow
 def test_free_body_path_equals_kane_path():
     """Without hinges ``accelerations`` takes a Newton-Euler shortcut (block-diagonal constant M);
     it must give the general Kane path's accelerations and their tangents, for two free bodies on a

@@ -48,7 +48,13 @@ SOLVER = RosenbrockW(jacobian_every=4)
 # rhoA sdot), so they equal the dense Jacobian exactly when the cable's mass per length is scaled
 # away, and differ from it by those terms at the real mass: measured on this state (beta = 1e-3 s)
 # 1.5e-9 of the largest entry in K, 1.1e-5 in C's internal blocks, 5.7e-3 in C's border columns.
-@pytest.mark.parametrize("mass_scale, rtol", [(1e-9, 1e-9), (1.0, 3e-2)], ids=["massless", "real mass"])
+# the real mass in the slow tier (20-25 s on 2 cores): the exact comparison is the massless one, and
+# the real-mass difference is the measured size of the terms the blocks leave out (above)
+@pytest.mark.parametrize(
+    "mass_scale, rtol",
+    [(1e-9, 1e-9), pytest.param(1.0, 3e-2, marks=pytest.mark.slow)],
+    ids=["massless", "real mass"],
+)
 def test_blocks_equal_the_dense_jacobian_of_the_cable_forces(mass_scale, rtol):
     scene = _scene(beta=1e-3)
     scene = eqx.tree_at(lambda s: s.cables.subsystems.cable.rhoA_kg_per_m, scene, scene.cables.subsystems.cable.rhoA_kg_per_m * mass_scale)  # fmt: skip
@@ -226,6 +232,10 @@ def test_level_solver_settings_follow_the_measured_crossover():
         assert registry.bench_case(name).level in ("ale", "full")
 
 
+# slow tier: 70-100 s on 2 cores (a dense J and a jacfwd of the vector field compiled); the default
+# tier keeps the W-method with the hook columns in J through the stiff limits and the structured
+# step against the dense reference (this file)
+@pytest.mark.slow
 def test_hook_coupling_columns_are_the_vector_fields_own():
     """The W-method's ``J`` holds the cable rows' columns on the rocket's coordinates (the contact
     forces move with the hooks, :class:`jaxcable.arresting.stiff.HookCoupling`): assembled densely
@@ -254,6 +264,9 @@ def test_hook_coupling_columns_are_the_vector_fields_own():
     assert scene.stiff_linearisation(0.0, y, hook_coupling=False).coupling is None
 
 
+# slow tier: 40-45 s on 2 cores (the full level's scene compiled for one Jacobian); the default tier
+# runs the full level through the W-method (tests/arresting/test_stiff_limits.py, the landing tests)
+@pytest.mark.slow
 def test_hinge_jacobian_is_the_vector_fields_diagonal():
     """The hooks' hinge rows of the W-method's ``J`` at the full level
     (:meth:`PassiveLandingScene._hinge_jacobian`: torque derivatives times the hinges' inverse

@@ -77,6 +77,10 @@ def _orders(errors):
     return np.log2(errors[:-1] / errors[1:])
 
 
+# slow tier: 80 s on 2 cores (six constant-step solves); the default tier keeps the energy budget of
+# the W-method's landings closing to the tolerance (tests/arresting/test_stiff.py) and the undamped
+# cable's energy conservation over pulleys (tests/arresting/test_cables.py)
+@pytest.mark.slow
 def test_undamped_cables_conserve_energy_at_the_methods_order():
     scene = passive_landing_scene("ale", t_end_s=T_FREE, cable_damping_s=0.0, **MESH)
     y0 = scene.initial_state()
