@@ -105,6 +105,11 @@ def write_md(data, path):
             best = r["worst"]
             lines.append(f"| {i} | {r['worst']:.4f} | {_criteria(r)} | {r['stopped']} | {_design(r)} |")
     lines += ["", f"{len(rows)} landings; the rows above are the start and each improvement.", ""]
+    if data.get("search_date"):
+        start, end = data["search_load"]
+        when = f"{data['search_date']} (load average at its start {start}, " + (
+            f"at its end {end})" if end else "stopped before its end, by hand, when its gains fell below 0.1%)")
+        lines += [f"The search ran on {when}; the refined landings below after it (`--refine-only`).", ""]
     if data.get("refined"):
         lines += ["The best design on refined meshes (the convergence check):", "",
                   "| mesh (span / fine elements) | worst | z_max [m] / a_max [g] / sigma_max [MPa] | stopped |",
@@ -143,7 +148,9 @@ def main():
     if args.refine_only:  # the search of an earlier (possibly stopped) run, refined now
         saved = json.loads((out / f"{STEM}.json").read_text())
         data.update(search=saved["search"], level=saved["level"], knots=saved["knots"], t_end_s=saved["t_end_s"],
-                    search_date=saved["date"], search_load=[saved["load_start"], saved.get("load_end")])  # fmt: skip
+                    search_date=saved.get("search_date", saved["date"]),
+                    search_load=saved.get("search_load", [saved["load_start"], saved.get("load_end")]),
+                    refined=[r for r in saved.get("refined", []) if r["mesh"] != [N_SPAN, N_FINE]])  # fmt: skip
         args.level, args.t_end = saved["level"], saved["t_end_s"]
 
     def f(u):
@@ -163,13 +170,16 @@ def main():
     x_best = np.array([best["m_w_kg"], best["F_f_N"], *best["factors"]])
     for mesh in args.refine:
         n_span, n_fine = (int(v) for v in mesh.split(","))
+        if [n_span, n_fine] in [r["mesh"] for r in data["refined"]]:
+            continue  # landed by an earlier run (--refine-only keeps its rows)
         row = land(args.level, x_best, args.t_end, criteria, n_span_elements=n_span, n_fine=n_fine)
         row["mesh"] = [n_span, n_fine]
         data["refined"].append(row)
         print("refined", mesh, f"{row['worst']:.4f}", _criteria(row), flush=True)
         _report.save(data, out, STEM)
-    if args.refine:
+    if data["refined"]:
         data["refined"].insert(0, dict(best, mesh=[N_SPAN, N_FINE]))
+        data["refined"].sort(key=lambda r: r["mesh"])
     _report.finish(data, out, STEM, write_md)
 
 
