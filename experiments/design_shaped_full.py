@@ -9,12 +9,13 @@ arresting engine's metering cam) is the remaining buffer freedom. This script se
 full level directly: Nelder-Mead (scipy) over m_w, F_f and K factors, minimising the worst
 normalised criterion ``max(z_max / 10 m, a_max / 5 g, sigma_max / 800 MPa)`` (below 1: all three
 met; a run that did not stop, or whose solve failed, scores 10), the variables mapped to their
-bounds by a logistic. Every evaluation is one ``run_landing`` (no gradient: at this level a
-gradient costs ~3.5x a landing, and the design notes found derivative-free search as fast on 6
-variables). The best design is then landed on the mesh refined 1.5x and 2x (48 / 64 span elements,
+bounds by the design module's scaled logistic (``design_space``). Every evaluation is one
+``run_landing`` (no gradient: at this level a gradient costs ~3.5x a landing, and the design notes
+found derivative-free search as fast on 6 variables). The best design is then landed on the mesh refined 1.5x and 2x (48 / 64 span elements,
 32 fine), since the default mesh is ~3% low on a_max for this buffer family.
 
-Writes ``design_shaped_full.{json,md}``; resumable only by ``--start``. Usage:
+Writes ``design_shaped_full.{json,md}`` after every landing; ``--refine-only`` refines the best
+design of a saved (or stopped) search, keeping the meshes already landed. Usage:
 
     python experiments/design_shaped_full.py                  # full level, 4 knots, 90 landings (~40 min idle)
     python experiments/design_shaped_full.py --quick          # ale level, 0.3 s, 8 landings; experiments/out/
@@ -32,6 +33,7 @@ import numpy as np
 from scipy.optimize import minimize
 
 from jaxcable.arresting.buffer import BufferDevice
+from jaxcable.arresting.design_setup import design_space, profile_names
 from jaxcable.arresting.landing import run_landing
 from jaxcable.arresting.passive import DEFAULT_FINE_ELEMENTS as N_FINE
 from jaxcable.arresting.passive import DEFAULT_SPAN_ELEMENTS as N_SPAN
@@ -48,19 +50,10 @@ BOUNDS = {  # m_w [kg], F_f [N], the profile's factors [-]
 }
 
 
-def _bounds(knots):
-    return np.array([BOUNDS["m_w"], BOUNDS["F_f"]] + [BOUNDS["factor"]] * knots)
-
-
-def to_physical(u, bounds):
-    lo, hi = bounds[:, 0], bounds[:, 1]
-    return lo + (hi - lo) / (1.0 + np.exp(-np.asarray(u)))
-
-
-def to_unconstrained(x, bounds):
-    lo, hi = bounds[:, 0], bounds[:, 1]
-    p = (np.asarray(x) - lo) / (hi - lo)
-    return np.log(p / (1.0 - p))
+def shaped_space(knots):
+    """The design module's space of m_w, F_f and ``knots`` factors (its scaled logistic) on ``BOUNDS``."""
+    bounds = {"m_w": BOUNDS["m_w"], "F_f": BOUNDS["F_f"], **{b: BOUNDS["factor"] for b in profile_names(knots)}}
+    return design_space(("m_w", "F_f", *profile_names(knots)), bounds)
 
 
 def land(level, x, t_end, criteria, **mesh):
@@ -141,9 +134,7 @@ def main():
     enable_x64()
     out = _report.output_dir(args.out, args.quick)
     criteria = LandingCriteria()
-    bounds = _bounds(args.knots)
-    m_w, f_f = (float(v) for v in args.start.split(","))
-    x0 = np.array([m_w, f_f] + [1.0] * args.knots)
+    space = shaped_space(args.knots)
     data = _report.start(level=args.level, knots=args.knots, t_end_s=args.t_end, search=[], refined=[])
     if args.refine_only:  # the search of an earlier (possibly stopped) run, refined now
         saved = json.loads((out / f"{STEM}.json").read_text())
@@ -154,14 +145,15 @@ def main():
         args.level, args.t_end = saved["level"], saved["t_end_s"]
 
     def f(u):
-        row = land(args.level, to_physical(u, bounds), args.t_end, criteria)
+        row = land(args.level, np.asarray(space.to_physical(u)), args.t_end, criteria)
         data["search"].append(row)
         print(len(data["search"]), f"{row['worst']:.4f}", _criteria(row), _design(row), f"{row['wall_s']:.1f} s", flush=True)
         _report.save(data, out, STEM)
         return row["worst"]
 
     if not args.refine_only:
-        u0 = to_unconstrained(x0, bounds)
+        m_w, f_f = (float(v) for v in args.start.split(","))
+        u0 = np.asarray(space.to_unconstrained(np.array([m_w, f_f] + [1.0] * args.knots)))
         # initial simplex: each variable moved by 0.4 in the logistic's argument (about 10% of its range)
         simplex = np.vstack([u0] + [u0 + 0.4 * np.eye(len(u0))[i] for i in range(len(u0))])
         minimize(f, u0, method="Nelder-Mead",
