@@ -32,7 +32,12 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxcable.components.ale import AleCable, axial_tension_factor, strain_energy_density
-from jaxcable.components.contact import _capsule_contact
+from jaxcable.components.contact import (
+    DEFAULT_LOAD,
+    DEFAULT_PENETRATION,
+    _capsule_contact,
+)
+from jaxcable.core.math import safe_norm
 from jaxcable.components.wind import cable_drag_element_forces
 from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.cables import (
@@ -48,6 +53,29 @@ from jaxcable.arresting.cables import (
 from jaxcable.arresting.layout import HOOK_OF_CABLE, ArrestingLayout, span_endpoints
 
 __all__ = ["AleCables", "HookPoints", "MasslessCables", "throat_weights"]
+
+
+RING_STIFFNESS_N_PER_M = 1.5 * DEFAULT_LOAD / DEFAULT_PENETRATION
+"""Stiffness of the ring that holds a hook node at its throat (``AleCables(hook_contact="node")``)
+[N/m]: the capsule contact's tangent stiffness at its design load, ``e F0 / delta0`` = 9e7 N/m
+(:mod:`jaxcable.components.contact`: 3e5 N per hook at 5 mm, a stranded rope's lateral
+flattening), so the two hook models deflect alike under the same load."""
+
+
+def _fractions_fine_at_end(n_elements: int, n_fine: int, half_width: float, total: float):
+    """Internal-node fractions (n_elements - 1,) of a sub-span of material length ``total`` [m]
+    that ends at a hook node: ``n_fine`` equal elements over its last ``half_width`` [m] (at most
+    half the sub-span), the rest equal over the remainder (NumPy)."""
+    if n_fine < 1 or n_elements - n_fine < 1:
+        raise ValueError(
+            f"a hook node's sub-span needs at least one fine and one coarse element, got {n_elements} elements "
+            f"with {n_fine} fine (n_span_elements must be >= n_fine + 2)"
+        )
+    fine = min(float(half_width), 0.5 * float(total))
+    edges = np.concatenate(
+        [np.linspace(0.0, total - fine, n_elements - n_fine + 1)[:-1], np.linspace(total - fine, total, n_fine + 1)]
+    )
+    return edges[1:-1] / total
 
 
 _CABLE_OF_HOOK = tuple(int(c) for c in np.argsort(HOOK_OF_CABLE))
@@ -267,10 +295,24 @@ class AleCables(eqx.Module):
     wind_time_offset_s: jax.Array = eqx.field(converter=jnp.asarray, default=0.0)
     """Scene time 0 is wind time ``wind_time_offset_s`` [s] (the capture instant of a two-phase
     landing, so the gust continues through the phase switch)."""
+    hook_contact: str = eqx.field(static=True, default="capsule")
+    """How a hook holds its cable: ``"capsule"`` (the Hertz/Coulomb contact of every hook capsule
+    with every span element) or ``"node"`` (the hook as a sliding node: a boundary node of the
+    arresting span, its material coordinate free, held at the hook's throat by the ring law below;
+    see :meth:`_node_contact`)."""
+    throat_w: jax.Array | None = None
+    """(3,) affine weights of the throat on a hook's (hinge, tip, barb end) (:func:`throat_weights`);
+    used by ``hook_contact="node"``."""
+    ring_stiffness_N_per_m: jax.Array = eqx.field(converter=jnp.asarray, default=RING_STIFFNESS_N_PER_M)
+    """Stiffness of the ring that holds a hook node at its throat [N/m] (``hook_contact="node"``)."""
 
     def __check_init__(self):
         if self.wind is not None and self.aero is None:
             raise ValueError("AleCables: wind given without aero coefficients (aero=None)")
+        if self.hook_contact not in ("capsule", "node"):
+            raise ValueError(f"AleCables.hook_contact must be 'capsule' or 'node', got {self.hook_contact!r}")
+        if self.hook_contact == "node" and self.throat_w is None:
+            raise ValueError("AleCables: hook_contact='node' needs the throat weights (throat_w)")
         m = self.contact_tangent_pairs
         if m is not None and (isinstance(m, bool) or not isinstance(m, (int, np.integer)) or m < 1):
             raise ValueError(f"AleCables.contact_tangent_pairs must be None or a positive integer, got {m!r}")
@@ -303,6 +345,7 @@ class AleCables(eqx.Module):
         damping_s: float = 1e-4,
         slack_width: float = 1e-6,
         gravity=(0.0, 0.0, -9.81),
+        hook_contact: str = "capsule",
     ):
         """Routes, initial drape and mesh of the four cables (concrete inputs: runs outside jit).
 
@@ -311,7 +354,15 @@ class AleCables(eqx.Module):
         (:func:`contact_free_drape_point`), meshed with ``n_fine`` equal elements over +-``fine_half_width_m``
         around the throat and the rest coarse; towers get ``n_tower_elements``, block strands one.
         Material coordinates are set for a uniform pre-tension.
+
+        ``hook_contact="node"``: the arresting span is two sub-spans joined at a ``"hook"`` node
+        placed at the throat (not moved out of the hook: the ring holds it there), ``n_span_elements
+        // 2`` elements in the first, the rest in the second, each with half the fine elements next
+        to the hook node (they follow the hook however far the cable slides).
         """
+        if hook_contact not in ("capsule", "node"):
+            raise ValueError(f"hook_contact must be 'capsule' or 'node', got {hook_contact!r}")
+        node = hook_contact == "node"
         ends, _ = span_endpoints(layout, frame_centre_xy)
         throats, _ = _engaged_throats(hooks0, throat_w)
         H, D = layout.tower_height_m, layout.block_strand_m
@@ -326,33 +377,38 @@ class AleCables(eqx.Module):
         clearance = float(hook_radius_m) + float(layout.cable_radius_m)
         for k in range(4):
             pa, pb, c = (np.asarray(x, float) for x in (ends[k, 0], ends[k, 1], throats[k]))
-            # the drape touches its hook without entering it (a rolled or tilted capture)
-            c = contact_free_drape_point(pa, pb, c, np.asarray(hooks0.positions[HOOK_OF_CABLE[k]], float), clearance)
+            if not node:  # the drape touches its hook without entering it (a rolled or tilted capture)
+                c = contact_free_drape_point(pa, pb, c, np.asarray(hooks0.positions[HOOK_OF_CABLE[k]], float), clearance)
             mid = 0.5 * (pa + pb)
             ground = np.array([mid[0], mid[1], -float(H)])
             block = ground - np.array([0.0, 0.0, float(D)])
-            pts = np.stack([block, ground, pa, pb, ground, block])
             leg_a, leg_b = np.linalg.norm(c - pa), np.linalg.norm(pb - c)
-            geo = [float(D), np.linalg.norm(pa - ground), leg_a + leg_b, np.linalg.norm(ground - pb), float(D)]
+            tower = np.linspace(0, 1, n_tower_elements + 1)[1:-1]
+            if node:
+                pts = np.stack([block, ground, pa, c, pb, ground, block])
+                geo = [float(D), np.linalg.norm(pa - ground), leg_a, leg_b, np.linalg.norm(ground - pb), float(D)]
+                n_a = n_span_elements // 2
+                f_a = _fractions_fine_at_end(n_a, n_fine // 2, fine_half_width_m / lam, leg_a / lam)
+                f_b = 1.0 - _fractions_fine_at_end(n_span_elements - n_a, n_fine - n_fine // 2, fine_half_width_m / lam, leg_b / lam)[::-1]  # fmt: skip
+                fractions = (np.zeros(0), tower, f_a, f_b, tower, np.zeros(0))
+                kinds = ("end", "pulley", "pulley", "hook", "pulley", "pulley", "end")
+                moving = (True, False, False, False, False, False, True)
+            else:
+                pts = np.stack([block, ground, pa, pb, ground, block])
+                geo = [float(D), np.linalg.norm(pa - ground), leg_a + leg_b, np.linalg.norm(ground - pb), float(D)]
+                span_mat = (leg_a + leg_b) / lam
+                frac_span = graded_fractions(n_span_elements, leg_a / lam, fine_half_width_m, n_fine, span_mat)
+                fractions = (np.zeros(0), tower, frac_span, tower, np.zeros(0))
+                kinds = ("end", "pulley", "pulley", "pulley", "pulley", "end")
+                moving = (True, False, False, False, False, True)
             s_b = np.concatenate([[0.0], np.cumsum(geo)]) / lam
-            span_mat = (leg_a + leg_b) / lam
-            frac_span = graded_fractions(
-                n_span_elements, leg_a / lam, fine_half_width_m, n_fine, span_mat
-            )
-            fractions = (
-                np.zeros(0),
-                np.linspace(0, 1, n_tower_elements + 1)[1:-1],
-                frac_span,
-                np.linspace(0, 1, n_tower_elements + 1)[1:-1],
-                np.zeros(0),
-            )
             route = CableRoute(
                 boundary_points=jnp.asarray(pts),
                 s_boundary0=jnp.asarray(s_b),
                 fractions=tuple(jnp.asarray(f) for f in fractions),
                 block_direction=jnp.array([0.0, 0.0, 1.0]),
-                kinds=("end", "pulley", "pulley", "pulley", "pulley", "end"),
-                moving=(True, False, False, False, False, True),
+                kinds=kinds,
+                moving=moving,
             )
             cable = AleCable(
                 EA_N=layout.EA_N, rhoA_kg_per_m=layout.rhoA_kg_per_m, damping_s=damping_s, slack_width=slack_width
@@ -362,12 +418,13 @@ class AleCables(eqx.Module):
             r_int = []
             for j, f in enumerate(fractions):
                 for fi in f:
-                    if j == 2:
+                    if j == 2 and not node:
                         d = fi * (leg_a + leg_b)
                         r_int.append(pa + (c - pa) * d / leg_a if d <= leg_a else c + (pb - c) * (d - leg_a) / leg_b)
                     else:
                         r_int.append(pts[j] + fi * (pts[j + 1] - pts[j]))
-            q0s.append(CableCoords(r=jnp.asarray(np.array(r_int)), s=jnp.asarray(s_b[1:-1]), u=jnp.zeros(())))
+            h0 = jnp.asarray(c[None]) if node else None
+            q0s.append(CableCoords(r=jnp.asarray(np.array(r_int)), s=jnp.asarray(s_b[1:-1]), u=jnp.zeros(()), h=h0))
         stacked = jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *subs)
         q0 = jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *q0s)
         first = 1 + (n_tower_elements)
@@ -378,6 +435,8 @@ class AleCables(eqx.Module):
             cable_radius_m=layout.cable_radius_m,
             q0=q0,
             span_slice=(first, first + n_span_elements),
+            hook_contact=hook_contact,
+            throat_w=jnp.asarray(throat_w) if node else None,
         )
 
     def initial_state(self):
@@ -408,6 +467,99 @@ class AleCables(eqx.Module):
         power = jnp.sum(span_forces[:, :, 0] * a1) + jnp.sum(span_forces[:, :, 1] * a2) + jnp.sum(f_hook * V)
         return span_forces, f_hook, normal, power, touching
 
+    # -- the hook as a sliding node (hook_contact="node") ----------------------------------------
+    def _node_slots(self):
+        """Static indices for ``hook_contact="node"``: ``(node, s_slot, h_slots, n_slow)``: the hook
+        node's index among a cable's nodes, its material coordinate's slot in ``CableCoords.s``
+        (and in the slow coordinates), its position's three slow slots, and the number of slow
+        coordinates."""
+        lo, hi = self.span_slice
+        kinds = self.subsystems.route.kinds
+        pulleys = [i for i, k in enumerate(kinds) if k in ("pulley", "active", "hook")]
+        n_p = len(pulleys)
+        return lo + (hi - lo) // 2, pulleys.index(kinds.index("hook")), np.arange(n_p, n_p + 3), n_p + 4
+
+    def _node_contact(self, kin, hooks: HookPoints):
+        """The hook as a sliding node: each cable's hook node ``r_h`` (a coordinate, its material
+        coordinate ``s_h`` free) is held at its hook's throat ``C`` (:func:`throat_weights`) by a
+        ring, ``F = -k d - c k |d| d_dot`` on the node with ``d = r_h - C``: a linear spring
+        (``ring_stiffness_N_per_m``) with Hunt-Crossley damping, proportional to the spring's force
+        through the contact law's factor ``c`` (0.2 s/m: 6e4 N s/m at the 3e5 N design load, the
+        capsule contact's), so that the force does not jump when the hook meets the cable at rest
+        (a linear damper would put ``c v`` = 1.2 MN on it at t = 0 of the design case), and the
+        material slides through it against Coulomb friction
+        (the contact law's ``mu``, regularised stick) under the ring's load ``|F|``: half of it on
+        each side of the node, on the material there (the element's end), along that element's
+        tangent, opposing the material's slip relative to the throat. The ring pushes only on the
+        node's position, never on the material along the cable: without friction the two legs
+        carry the same tension wherever the hook sits (the capsule contact of straight elements
+        does not, on a kinked cable: ``docs/arresting_validation.md``).
+
+        Returns ``(Q_slow (4, n_slow) [N] on the cables' slow coordinates, f_hook (4 hooks, 3
+        points, 3) [N], normal (4,) per hook [N], power [W])``, the power summed over both sides
+        (the ring's ``F . (v_h - C_dot)`` and the friction's ``f . (a - C_dot)``; the damping and the
+        friction parts <= 0)."""
+        node, s_slot, h_slots, n_slow = self._node_slots()
+        C, C_dot = _engaged_throats(hooks, self.throat_w)
+        d, d_dot = kin.r[:, node] - C, kin.v[:, node] - C_dot
+        spring = self.ring_stiffness_N_per_m * d
+        ring = -spring - (self.contact.c * safe_norm(spring))[:, None] * d_dot  # on the node (4, 3)
+        load = safe_norm(ring)
+
+        def side(t, a):
+            """Friction on the material at the node on one side: tangent ``t`` (r') of that element,
+            material velocity ``a``; returns the force (4, 3), its row on ``s`` (4,) and its power."""
+            t_hat = t / jnp.sqrt(jnp.sum(t * t, axis=-1, keepdims=True))
+            slip = jnp.sum(t_hat * (a - C_dot), axis=-1, keepdims=True) * t_hat
+            f = self.contact.friction_force(0.5 * load, slip)
+            return f, -jnp.sum(t * f, axis=-1), jnp.sum(f * (a - C_dot))
+
+        f_a, s_a, p_a = side(kin.tangent[:, node - 1], kin.a2[:, node - 1])
+        f_b, s_b, p_b = side(kin.tangent[:, node], kin.a1[:, node])
+        Q_h = ring + f_a + f_b
+        dtype = Q_h.dtype
+        Q_slow = jnp.concatenate(
+            [jnp.zeros((4, s_slot), dtype), (s_a + s_b)[:, None], jnp.zeros((4, h_slots[0] - s_slot - 1), dtype), Q_h,
+             jnp.zeros((4, n_slow - h_slots[-1] - 1), dtype)], axis=1,
+        )  # fmt: skip
+        on_hook = _per_hook(-Q_h)  # the reaction at each hook's throat (4 hooks, 3)
+        f_hook = self.throat_w[None, :, None] * on_hook[:, None, :]
+        power = jnp.sum(ring * d_dot) + p_a + p_b
+        return Q_slow, f_hook, _per_hook(load), power
+
+    def _node_jacobians(self, state: CableState, hooks: HookPoints):
+        """The hook node's share of :meth:`stiff_blocks`: the Jacobians (4 cables, 4, 4) of the ring's
+        and the friction's rows on the node's own slow coordinates ``(s_h, r_h)`` with respect to
+        those coordinates (``K``) and their rates (``C``), by eight JVPs (each cable's tangent set at
+        once: the cables are independent); their columns on the neighbouring internal nodes (through
+        the element tangents of the friction) are left out, as a W-method allows. Returns ``(slots
+        (4,), K, C)``."""
+        _, s_slot, h_slots, _ = self._node_slots()
+        idx = np.concatenate([[s_slot], h_slots])
+
+        def rows(x, xd):
+            q = eqx.tree_at(lambda c: (c.s, c.h), state.q, (state.q.s.at[:, s_slot].set(x[:, 0]), x[:, None, 1:]))
+            qd = eqx.tree_at(lambda c: (c.s, c.h), state.qdot, (state.qdot.s.at[:, s_slot].set(xd[:, 0]), xd[:, None, 1:]))
+            kin = self.kinematics(CableState(q=q, qdot=qd, dissipated=state.dissipated))
+            return self._node_contact(kin, hooks)[0][:, idx]
+
+        x = jnp.concatenate([state.q.s[:, s_slot, None], state.q.h[:, 0]], axis=1)
+        xd = jnp.concatenate([state.qdot.s[:, s_slot, None], state.qdot.h[:, 0]], axis=1)
+        eye = jnp.broadcast_to(jnp.eye(4, dtype=x.dtype)[:, None, :], (4, 4, 4))  # (tangent, cable, slot)
+        zero = jnp.zeros_like(eye)
+        cols = jax.vmap(lambda a, b: jax.jvp(rows, (x, xd), (a, b))[1])(jnp.concatenate([eye, zero]), jnp.concatenate([zero, eye]))
+        cols = jnp.moveaxis(cols, 0, -1)  # (cable, row, 8 tangents)
+        return idx, cols[..., :4], cols[..., 4:]
+
+    def _node_external(self, Q_slow, q):
+        """One cable's slow forces ``Q_slow`` (n_slow,) as the ``external`` :class:`CableCoords` of
+        :meth:`CableSubsystem.accelerations`."""
+        _, _, h_slots, _ = self._node_slots()
+        n_p = int(h_slots[0])
+        return CableCoords(
+            r=jnp.zeros_like(q.r), s=Q_slow[:n_p], u=Q_slow[-1], h=Q_slow[n_p : n_p + 3].reshape(1, 3)
+        )
+
     def _span_ends(self, kin):
         """The arresting span's element ends from the stacked ``kin``: positions ``r1, r2`` and
         material velocities ``a1, a2``, each (4 cables, n_span, 3)."""
@@ -424,6 +576,8 @@ class AleCables(eqx.Module):
         ``kin`` (:meth:`kinematics`): what :meth:`respond` returns as ``f_hook``. With ``picked``
         (:meth:`contact_pairs_picked` at the same state) from those pairs only: the same
         derivative (the one :meth:`respond`'s JVP takes) without every pair's values and the pick."""
+        if self.hook_contact == "node":
+            return self._node_contact(kin, hooks)[1]
         if picked is None:
             return self._contact(kin, hooks)[1]
         caps_p, caps_v = _capsules(hooks)
@@ -435,7 +589,9 @@ class AleCables(eqx.Module):
     def contact_pairs_picked(self, kin, hooks: HookPoints):
         """Flat indices of the pairs whose contact derivative is taken (the ``contact_tangent_pairs``
         of largest penetration, as :func:`_contact_all_pairs`'s JVP picks them; all pairs when it
-        is None), for :meth:`contact_forces_jvp`."""
+        is None), for :meth:`contact_forces_jvp`; none with ``hook_contact="node"``."""
+        if self.hook_contact == "node":
+            return jnp.zeros((0,), jnp.int32)
         caps_p, caps_v = _capsules(hooks)
         penetration = _dense_pairs(
             self.contact, self.hook_radius_m, self.cable_radius_m, caps_p, caps_v, *self._span_ends(kin)
@@ -481,6 +637,12 @@ class AleCables(eqx.Module):
         :meth:`kinematics`), from the pairs ``picked`` (:meth:`contact_pairs_picked` at the same
         state): the derivative :meth:`cable_forces`'s JVP takes, without recomputing every pair, the
         pick and the cables' own forces."""
+        if self.hook_contact == "node":
+            d_slow = jax.jvp(
+                lambda P, V: self._node_contact(kin, HookPoints(positions=P, velocities=V))[0],
+                (hooks.positions, hooks.velocities), (d_hooks.positions, d_hooks.velocities),
+            )[1]  # fmt: skip
+            return jnp.zeros_like(state.q.r), d_slow
         lo, hi = self.span_slice
         r1, r2, a1, a2 = self._span_ends(kin)
 
@@ -500,10 +662,16 @@ class AleCables(eqx.Module):
     def respond(self, state: CableState, hooks: HookPoints, t=0.0):
         """Cable accelerations and the forces on the hooks at time ``t`` [s] (used by the wind only)."""
         kin = self.kinematics(state)
-        span_forces, f_hook, normal, power, touching = self._contact(kin, hooks)
         lo, hi = self.span_slice
+        node = self.hook_contact == "node"
+        if node:
+            Q_node, f_hook, normal, power = self._node_contact(kin, hooks)
+            span_forces = jnp.zeros((4, hi - lo, 2, 3), Q_node.dtype)
+        else:
+            span_forces, f_hook, normal, power, touching = self._contact(kin, hooks)
+            Q_node = jnp.zeros((4, 1), span_forces.dtype)
 
-        def one(sub, q, qdot, kin, span_forces):
+        def one(sub, q, qdot, kin, span_forces, Q_node):
             n_el = kin.length.shape[0]
             element_forces = jnp.pad(span_forces, ((lo, n_el - hi), (0, 0), (0, 0)))
             if self.wind is None:
@@ -511,12 +679,13 @@ class AleCables(eqx.Module):
             else:
                 drag, aero_power = self._span_drag(kin, t)
                 element_forces = element_forces + drag
-            qdd = sub.accelerations(q, qdot, element_forces=element_forces, kin=kin)
+            external = self._node_external(Q_node, q) if node else None
+            qdd = sub.accelerations(q, qdot, external=external, element_forces=element_forces, kin=kin)
             diss = sub.dissipated_power(q, qdot, kin)
             tension = jnp.max(sub.element_tensions(kin))
             return qdd, diss, tension, aero_power
 
-        qdd, diss, tension, aero_power = jax.vmap(one)(self.subsystems, state.q, state.qdot, kin, span_forces)
+        qdd, diss, tension, aero_power = jax.vmap(one)(self.subsystems, state.q, state.qdot, kin, span_forces, Q_node)
         dstate = CableState(q=state.qdot, qdot=qdd, dissipated=diss)
         aux = dict(
             tension_max_N=jnp.max(tension),
@@ -524,8 +693,9 @@ class AleCables(eqx.Module):
             counterweight_rise_m=self.subsystems.buffer.transfer_rate * state.q.u,
             contact_power_W=power,
             aero_power_W=jnp.sum(aero_power),
-            contact_pairs_touching=touching,
         )
+        if not node:
+            aux["contact_pairs_touching"] = touching
         return f_hook, dstate, aux
 
     def cable_forces(self, state: CableState, hooks: HookPoints, t=0.0):
@@ -534,8 +704,13 @@ class AleCables(eqx.Module):
         n_slow))`` [N] (:meth:`CableSubsystem.generalised_forces`). Internal node ``j`` depends on
         the positions and velocities of nodes ``j - 1, j, j + 1`` and on the slow coordinates."""
         kin = self.kinematics(state)
-        span_forces = self._contact(kin, hooks)[0]
         lo, hi = self.span_slice
+        if self.hook_contact == "node":
+            Q_node = self._node_contact(kin, hooks)[0]
+            span_forces = jnp.zeros((4, hi - lo, 2, 3), Q_node.dtype)
+        else:
+            span_forces = self._contact(kin, hooks)[0]
+            Q_node = None
 
         def one(sub, q, qdot, kin, span_forces):
             n_el = kin.length.shape[0]
@@ -544,7 +719,8 @@ class AleCables(eqx.Module):
                 element_forces = element_forces + self._span_drag(kin, t)[0]
             return sub.generalised_forces(q, qdot, kin, element_forces)
 
-        return jax.vmap(one)(self.subsystems, state.q, state.qdot, kin, span_forces)
+        Q_r, Q_slow = jax.vmap(one)(self.subsystems, state.q, state.qdot, kin, span_forces)
+        return (Q_r, Q_slow) if Q_node is None else (Q_r, Q_slow + Q_node)
 
     def stiff_blocks(self, state: CableState, hooks: HookPoints, t=0.0, kin=None, picked=None):
         """The cables' linearisation for :mod:`jaxcable.core.rosenbrock` (hooks held fixed), as the
@@ -572,15 +748,20 @@ class AleCables(eqx.Module):
         Returns a dict of these arrays (the slots of motor-driven pulleys are
         ``self.subsystems.route.active_slots``)."""
         kin = self.kinematics(state) if kin is None else kin
-        picked = self.contact_pairs_picked(kin, hooks) if picked is None else picked
         lo, hi = self.span_slice
         J_z, J_zd = jax.vmap(lambda sub, k: sub.element_row_jacobians(k))(self.subsystems, kin)  # (4, n_el, 8, 8)
-        C_z, C_zd = self._contact_element_jacobians(kin, hooks, picked)  # (4, n_span, 8, 8) each
-        J_z = J_z.at[:, lo:hi].add(C_z)
-        J_zd = J_zd.at[:, lo:hi].add(C_zd)
+        if self.hook_contact == "capsule":
+            picked = self.contact_pairs_picked(kin, hooks) if picked is None else picked
+            C_z, C_zd = self._contact_element_jacobians(kin, hooks, picked)  # (4, n_span, 8, 8) each
+            J_z = J_z.at[:, lo:hi].add(C_z)
+            J_zd = J_zd.at[:, lo:hi].add(C_zd)
         (K_rr, C_rr), (K_rz, C_rz), (K_zz, C_zz) = jax.vmap(lambda sub, q, qd, a, b: sub.assemble_stiff_blocks(q, qd, a, b))(
             self.subsystems, state.q, state.qdot, J_z, J_zd
         )  # fmt: skip
+        if self.hook_contact == "node":
+            idx, K_n, C_n = self._node_jacobians(state, hooks)
+            K_zz = K_zz.at[:, idx[:, None], idx[None, :]].add(K_n)
+            C_zz = C_zz.at[:, idx[:, None], idx[None, :]].add(C_n)
 
         def masses(sub, kin):
             return sub.internal_mass_blocks(kin), sub.slow_mass_blocks(kin)

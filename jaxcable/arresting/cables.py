@@ -94,9 +94,15 @@ class CableCoords(eqx.Module):
     r: jax.Array
     """Internal-node positions (n_int, 3) [m] (rates: [m/s])."""
     s: jax.Array
-    """Material coordinates of the pulley nodes (n_p,) [m] (rates: [m/s])."""
+    """Material coordinates of the pulley and hook nodes (n_p,) [m] (rates: [m/s])."""
     u: jax.Array
     """Moving-block travel () [m] (rate: [m/s]); counterweight rise ``alpha u``."""
+    h: jax.Array
+    """Positions of the ``"hook"`` boundary nodes (n_h, 3) [m] (rates: [m/s]); (0, 3) without any."""
+
+    def __init__(self, r, s, u, h=None):
+        self.r, self.s, self.u = r, s, u
+        self.h = jnp.zeros(jnp.shape(r)[:-2] + (0, 3), jnp.result_type(r)) if h is None else h
 
 
 class CableState(eqx.Module):
@@ -158,8 +164,11 @@ class CableRoute(eqx.Module):
         if len(self.kinds) != len(self.moving) or len(self.fractions) != len(self.kinds) - 1:
             raise ValueError("CableRoute: kinds, moving and fractions must describe the same nodes/spans")
         for k in self.kinds:
-            if k not in ("end", "pulley", "active"):
-                raise ValueError(f"unknown boundary kind {k!r}; choose 'end', 'pulley' or 'active'")
+            if k not in ("end", "pulley", "active", "hook"):
+                raise ValueError(f"unknown boundary kind {k!r}; choose 'end', 'pulley', 'active' or 'hook'")
+        for k, m in zip(self.kinds, self.moving):
+            if k == "hook" and m:
+                raise ValueError("a 'hook' boundary node cannot ride the moving block (its position is a coordinate)")
         if self.kinds[0] != "end" or self.kinds[-1] != "end":
             raise ValueError("a cable route must start and end with an 'end' node")
         s = np.asarray(self.s_boundary0) if not isinstance(self.s_boundary0, jax.core.Tracer) else None
@@ -181,7 +190,28 @@ class CableRoute(eqx.Module):
 
     @property
     def pulley_ids(self):
-        return tuple(i for i, k in enumerate(self.kinds) if k in ("pulley", "active"))
+        """Boundary nodes whose material coordinate is free (pulleys, motor-driven pulleys, hooks),
+        in the order of ``CableCoords.s``."""
+        return tuple(i for i, k in enumerate(self.kinds) if k in ("pulley", "active", "hook"))
+
+    @property
+    def hook_ids(self):
+        """Boundary nodes of kind ``"hook"`` (position and material coordinate both free), in the
+        order of ``CableCoords.h``."""
+        return tuple(i for i, k in enumerate(self.kinds) if k == "hook")
+
+    def hook_node_map(self):
+        """``H`` (N, n_h) constant 0/1: ``r_node = H h + ...`` (which node is each hook node)."""
+        bidx, _, _, _ = self._index_tables()
+        H = np.zeros((len(bidx), len(self.hook_ids)))
+        for k, b in enumerate(self.hook_ids):
+            H[np.nonzero(bidx == b)[0], k] = 1.0
+        return H
+
+    def hook_columns(self):
+        """``Hc`` (N, 3, 3 n_h) constant: ``d r_node / d h`` with ``h`` flattened (hook-major)."""
+        H = self.hook_node_map()
+        return (H[:, None, :, None] * np.eye(3)[None, :, None, :]).reshape(H.shape[0], 3, 3 * H.shape[1])
 
     @property
     def active_slots(self):
@@ -283,7 +313,20 @@ class CableRoute(eqx.Module):
 
     def boundary_r(self, q: CableCoords):
         shift = jnp.asarray(self.moving, dtype=float)[:, None] * q.u * self.block_direction[None, :]
-        return self.boundary_points + shift
+        return self._with_hooks(self.boundary_points + shift, q.h)
+
+    def _with_hooks(self, r_boundary, h):
+        """(nb, 3) boundary values with the hook nodes' rows taken from ``h`` (n_h, 3)."""
+        if not self.hook_ids:
+            return r_boundary
+        pieces, k = [], 0
+        for i, kind in enumerate(self.kinds):
+            if kind == "hook":
+                pieces.append(h[k : k + 1])
+                k += 1
+            else:
+                pieces.append(r_boundary[i : i + 1])
+        return jnp.concatenate(pieces)
 
     def _node_positions(self, r_boundary, r_internal):
         """All nodal positions (N, 3) from the boundary (nb, 3) and internal (n_int, 3) ones, in route
@@ -315,6 +358,7 @@ class CableRoute(eqx.Module):
         """Nodal velocities (N,3) [m/s] and material rates (N,) [m/s] of the rates ``qdot`` (the map
         is affine in q with a constant linear part, so the rates do not depend on q)."""
         v_boundary = jnp.asarray(self.moving, dtype=float)[:, None] * qdot.u * self.block_direction[None, :]
+        v_boundary = self._with_hooks(v_boundary, qdot.h)
         sd_boundary = self._boundary_values(jnp.zeros_like(self.s_boundary0), qdot.s)
         v = self._node_positions(v_boundary, qdot.r)
         return v, _matvec(self.interpolation_weights(), sd_boundary)
@@ -488,8 +532,8 @@ class CableSubsystem(eqx.Module):
         """
         kin = self.kinematics(q, jax.tree_util.tree_map(jnp.zeros_like, q))
         F_r, F_s = _scatter_element_ends(_material_force_rows(kin.tangent, element_forces))
-        Q_r, Q_s, Q_u = self._generalised(kin, F_r, F_s)
-        return CableCoords(r=Q_r, s=Q_s, u=Q_u)
+        Q_r, Q_s, Q_u, Q_h = self._generalised(kin, F_r, F_s)
+        return CableCoords(r=Q_r, s=Q_s, u=Q_u, h=Q_h)
 
     # -- dynamics --------------------------------------------------------------------------------
     def kinematics(self, q, qdot) -> "CableKinematics":
@@ -565,14 +609,15 @@ class CableSubsystem(eqx.Module):
 
     def generalised_forces(self, q, qdot, kin: "CableKinematics", element_forces=None):
         """All generalised forces of Lagrange's equations before the mass solve: ``(Q_r (n_int, 3),
-        Q_slow (n_slow,))`` [N], the slow coordinates being the pulleys' ``s`` then the block's ``u``
-        (element terms, point forces on the material, counterweight weight and brake)."""
+        Q_slow (n_slow,))`` [N], the slow coordinates being the pulleys' (and hooks') ``s``, then the
+        hook nodes' positions ``h`` (flattened), then the block's ``u`` (element terms, point forces
+        on the material, counterweight weight and brake)."""
         F_r, F_s = self.nodal_forces(kin, element_forces)
-        Q_r, Q_s, Q_u = self._generalised(kin, F_r, F_s)
+        Q_r, Q_s, Q_u, Q_h = self._generalised(kin, F_r, F_s)
         b = self.buffer
         g = -self.gravity[2]
         Q_u = Q_u - b.counterweight_mass_kg * g * b.transfer_rate + b.generalized_force(qdot.u, q.u)
-        return Q_r, jnp.concatenate([Q_s, Q_u[None]])
+        return Q_r, jnp.concatenate([Q_s, Q_h.reshape(-1), Q_u[None]])
 
     def element_row_jacobians(self, kin: CableKinematics):
         """Each element's Jacobians of its rows of Lagrange's equations in nodal coordinates,
@@ -639,13 +684,16 @@ class CableSubsystem(eqx.Module):
         _, iidx, _, _ = route._index_tables()
         internal = np.nonzero(iidx >= 0)[0]
         S, U = route.slow_node_maps()
+        Hc = route.hook_columns()
         n_nodes, n_p = S.shape
-        # B_n (N, 4, n_slow): d(r_n, s_n)/d(s_pulleys, u)
-        B = jnp.zeros((n_nodes, 4, n_p + 1), J_z.dtype)
+        n_slow = n_p + Hc.shape[2] + 1
+        # B_n (N, 4, n_slow): d(r_n, s_n)/d(s_pulleys, h, u)
+        B = jnp.zeros((n_nodes, 4, n_slow), J_z.dtype)
         B = B.at[:, 3, :n_p].set(S)
-        B = B.at[:, :3, n_p].set(U)
+        B = B.at[:, :3, n_p : n_slow - 1].set(Hc)
+        B = B.at[:, :3, n_slow - 1].set(U)
         zero_el = jnp.zeros((1, 8, 8), J_z.dtype)
-        zero_node = jnp.zeros((1, 4, n_p + 1), J_z.dtype)
+        zero_node = jnp.zeros((1, 4, n_slow), J_z.dtype)
         B_prev = jnp.concatenate([zero_node, B[:-1]])
         B_next = jnp.concatenate([B[1:], zero_node])
         prev_linked = iidx[internal - 1] >= 0  # internal nodes are never a route's first or last
@@ -691,9 +739,10 @@ class CableSubsystem(eqx.Module):
         3) tangents, U (N, 3) d r_node / d u, c (n_el,) rhoA L / 6, G1, G2 (n_el, 3, n_slow) at the
         first and second ends, H1 = c (2 G1 + G2), H2 = c (G1 + 2 G2))``."""
         S, U = self.route.slow_node_maps(kin.W)
+        Hc = self.route.hook_columns()
         t = kin.tangent
-        G1 = jnp.concatenate([-t[:, :, None] * S[:-1, None, :], U[:-1, :, None]], axis=2)
-        G2 = jnp.concatenate([-t[:, :, None] * S[1:, None, :], U[1:, :, None]], axis=2)
+        G1 = jnp.concatenate([-t[:, :, None] * S[:-1, None, :], Hc[:-1], U[:-1, :, None]], axis=2)
+        G2 = jnp.concatenate([-t[:, :, None] * S[1:, None, :], Hc[1:], U[1:, :, None]], axis=2)
         c = (self.cable.rhoA_kg_per_m / 6.0) * kin.length
         H1 = c[:, None, None] * (2.0 * G1 + G2)
         H2 = c[:, None, None] * (G1 + 2.0 * G2)
@@ -713,12 +762,14 @@ class CableSubsystem(eqx.Module):
         return jnp.concatenate([zero, off]), diag, jnp.concatenate([off, zero])
 
     def _generalised(self, kin: "CableKinematics", F_r, F_s):
-        """``A^T`` of nodal forces ``F_r`` (N, 3), ``F_s`` (N,): generalised forces (r, s, u)."""
+        """``A^T`` of nodal forces ``F_r`` (N, 3), ``F_s`` (N,): generalised forces (r, s, u, h)."""
         S, U = self.route.slow_node_maps(kin.W)
         Q_r = self.route.internal_rows(F_r)
         Q_s = jnp.sum(S * F_s[:, None], axis=0)
         Q_u = jnp.sum(U * F_r)
-        return Q_r, Q_s, Q_u
+        H = self.route.hook_node_map()
+        Q_h = jnp.sum(H[:, :, None] * F_r[:, None, :], axis=0)  # (n_h, 3)
+        return Q_r, Q_s, Q_u, Q_h
 
     def accelerations(
         self, q, qdot, external: CableCoords | None = None, reel_acceleration=None, element_forces=None, kin=None
@@ -751,7 +802,7 @@ class CableSubsystem(eqx.Module):
         Q_r, Q_slow = self.generalised_forces(q, qdot, kin, element_forces)
         if external is not None:
             Q_r = Q_r + external.r
-            Q_slow = Q_slow + jnp.concatenate([external.s, external.u[None]])
+            Q_slow = Q_slow + jnp.concatenate([external.s, external.h.reshape(-1), external.u[None]])
         b = self.buffer
         _, iidx, _, _ = route._index_tables()
         internal = np.nonzero(iidx >= 0)[0]
@@ -763,8 +814,9 @@ class CableSubsystem(eqx.Module):
         # axis first, (n_slow, n_el, 3), elementwise: read from G1 (n_el, 3, n_slow), the dot first
         # made a transposing copy (12 us each with two tangents; without it the ale forward call was 7%
         # faster on the mean of five alternating runs, about this machine's noise).
-        G1T = jnp.concatenate([-S[:-1].T[:, :, None] * t[None], U[None, :-1]], axis=0)
-        G2T = jnp.concatenate([-S[1:].T[:, :, None] * t[None], U[None, 1:]], axis=0)
+        HcT = np.transpose(route.hook_columns(), (2, 0, 1))  # (3 n_h, N, 3)
+        G1T = jnp.concatenate([-S[:-1].T[:, :, None] * t[None], HcT[:, :-1], U[None, :-1]], axis=0)
+        G2T = jnp.concatenate([-S[1:].T[:, :, None] * t[None], HcT[:, 1:], U[None, 1:]], axis=0)
         n_slow = G1T.shape[0]
         M_ss = jnp.concatenate([G1T, G2T], axis=1).reshape(n_slow, -1) @ jnp.concatenate([H1, H2]).reshape(-1, n_slow)
         M_ss = M_ss.at[n_slow - 1, n_slow - 1].add(b.counterweight_mass_kg * b.transfer_rate**2)
@@ -804,7 +856,8 @@ class CableSubsystem(eqx.Module):
             reduced_rhs = reduced_rhs.at[active].set(prescribed)
         a_slow = _small_solve(schur, reduced_rhs)
         a_r = Minv_fr - jnp.sum(Minv_Mrs * a_slow, axis=-1) if internal.size else q.r * 0.0
-        return CableCoords(r=a_r, s=a_slow[:-1], u=a_slow[-1])
+        n_p = S.shape[1]
+        return CableCoords(r=a_r, s=a_slow[:n_p], u=a_slow[-1], h=a_slow[n_p:-1].reshape(-1, 3))
 
     def _cable_terms_x(self, x, xd, assemble=True):
         """Cable mass matrix and forces in full nodal coordinates ``x = [r_i, s_i]`` (4N,).
@@ -874,7 +927,7 @@ class CableSubsystem(eqx.Module):
         dVdq = jax.grad(lambda fq: self.potential_energy(unravel(fq)))(flat_q)
         dDdqd = jax.grad(lambda fqd: self.dissipation_function(unravel(flat_q), unravel(fqd)))(flat_qd)
         brake = ravel_pytree(
-            CableCoords(r=jnp.zeros_like(q.r), s=jnp.zeros_like(q.s), u=self.buffer.generalized_force(qdot.u, q.u))
+            CableCoords(r=jnp.zeros_like(q.r), s=jnp.zeros_like(q.s), u=self.buffer.generalized_force(qdot.u, q.u), h=jnp.zeros_like(q.h))
         )[0]
         rhs = -dp + dTdq - dVdq - dDdqd + brake
         if external is not None:

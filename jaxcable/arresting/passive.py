@@ -265,7 +265,7 @@ def _rocket_rows(state):
 
 def _cable_rows(state):
     q, qdot = state.cables.q, state.cables.qdot
-    return q.r, q.s, q.u, qdot.r, qdot.s, qdot.u
+    return q.r, q.s, q.h, q.u, qdot.r, qdot.s, qdot.h, qdot.u
 
 
 class PassiveLandingScene(AbstractScene):
@@ -695,6 +695,7 @@ def passive_landing_scene(
     rocket_params=None,
     save_spacing_s: float = SAVE_SPACING_S,
     n_save: int | None = None,
+    hook_contact: str = "capsule",
 ):
     """The passive-deceleration scene with the paper's Table 1 defaults at a fidelity level
     (``rigid``, ``ale`` or ``full``; the ``1dof`` level is run by :func:`run_landing`).
@@ -742,6 +743,11 @@ def passive_landing_scene(
     ``save_spacing_s`` [s] (default :data:`SAVE_SPACING_S`, 1 ms) or ``n_save`` (a fixed number of
     samples, default None): the saved grid when :func:`jaxcable.core.simulate` gets no ``save_ts``
     (:meth:`PassiveLandingScene.default_save_ts`); the maxima a_max and sigma_max are taken over it.
+
+    ``hook_contact`` (ALE cables only): ``"capsule"`` (default), the Hertz/Coulomb contact of the
+    hooks' capsules with every span element, or ``"node"``, the hook as a sliding node of its
+    cable held at the throat by a ring (:meth:`AleCables._node_contact`): no push along a kinked
+    cable, at the price of a cable that can never leave its hook.
     """
     check_choice("fidelity", fidelity, FIDELITY_LEVELS)
     if fidelity == "1dof":
@@ -749,6 +755,7 @@ def passive_landing_scene(
     if cable_model is None:
         cable_model = "massless" if fidelity == "rigid" else "ale"
     check_choice("cable_model", cable_model, ("massless", "ale"))
+    check_choice("hook_contact", hook_contact, ("capsule", "node"))
     check_instance("capture", capture, CaptureState, allow_none=True)
     check_instance("layout", layout, ArrestingLayout, allow_none=True)
     check_instance("buffer", buffer, BufferDevice, allow_none=True)
@@ -812,6 +819,7 @@ def passive_landing_scene(
             n_fine=n_fine,
             fine_half_width_m=fine_half_width_m,
             damping_s=cable_damping_s,
+            hook_contact=hook_contact,
         )
     if wind is not None:
         aero = AeroCoefficients() if aero is None else aero

@@ -57,8 +57,9 @@ class _ScaledIdentity(eqx.Module):
 
 class CableLinearisation(eqx.Module):
     """The cables' blocks (:meth:`jaxcable.arresting.cable_sets.AleCables.stiff_blocks`) and where
-    their rows sit in the scene's state: ``rows(state) -> (q.r, q.s, q.u, qdot.r, qdot.s, qdot.u)``
-    of the stacked cable coordinates."""
+    their rows sit in the scene's state: ``rows(state) -> (q.r, q.s, q.h, q.u, qdot.r, qdot.s,
+    qdot.h, qdot.u)`` of the stacked cable coordinates (the slow coordinates are ``s``, then ``h``
+    flattened, then ``u``)."""
 
     blocks: dict
     rows: Callable = eqx.field(static=True)
@@ -123,8 +124,8 @@ def _small_inverse(S):
     return M[..., k:]
 
 
-def _slow(s, u):
-    return jnp.concatenate([s, u[..., None]], axis=-1)
+def _slow(s, h, u):
+    return jnp.concatenate([s, h.reshape(h.shape[:-2] + (-1,)), u[..., None]], axis=-1)
 
 
 class _CableFactors(eqx.Module):
@@ -145,8 +146,8 @@ class _CableFactors(eqx.Module):
             A_h = (beta**2) * jnp.eye(K_h.shape[0], dtype=K_h.dtype) - beta * C_h - K_h
             x_w = _zz(_small_inverse(A_h[None]), (beta * b_w + K_h @ b_a)[None])[0]
             out = eqx.tree_at(self.lin.hinge_rows, out, ((b_a + x_w) / beta, x_w))
-        bq_r, bq_s, bq_u, bv_r, bv_s, bv_u = self.lin.rows(rhs)
-        bq_z, bv_z = _slow(bq_s, bq_u), _slow(bv_s, bv_u)
+        bq_r, bq_s, bq_h, bq_u, bv_r, bv_s, bv_h, bv_u = self.lin.rows(rhs)
+        bq_z, bv_z = _slow(bq_s, bq_h, bq_u), _slow(bv_s, bv_h, bv_u)
         g_r = (
             beta * (_mass_matvec(B["M_rr"], bv_r) + _rz(B["M_rs"], bv_z))
             + banded.matvec(*B["K_rr"], bq_r)
@@ -169,7 +170,11 @@ class _CableFactors(eqx.Module):
         x_z = _zz(self.S_inv, g_z - _zr(self.A_zr, w))
         x_r = w - _rz(self.Y, x_z)
         xq_r, xq_z = (bq_r + x_r) / beta, (bq_z + x_z) / beta
-        new = (xq_r, xq_z[..., :-1], xq_z[..., -1], x_r, x_z[..., :-1], x_z[..., -1])
+        n_p, h_shape = bq_s.shape[-1], bq_h.shape
+        new = (
+            xq_r, xq_z[..., :n_p], xq_z[..., n_p:-1].reshape(h_shape), xq_z[..., -1],
+            x_r, x_z[..., :n_p], x_z[..., n_p:-1].reshape(h_shape), x_z[..., -1],
+        )  # fmt: skip
         return eqx.tree_at(self.lin.rows, out, new)
 
 
@@ -220,7 +225,7 @@ def dense_reference(lin: CableLinearisation, state):
     flat, unravel = ravel_pytree(state)
     n = flat.shape[0]
     index = [jnp.asarray(x).astype(int) for x in lin.rows(unravel(jnp.arange(n, dtype=flat.dtype)))]
-    q_r, q_s, q_u, v_r, v_s, v_u = index
+    q_r, q_s, q_h, q_u, v_r, v_s, v_h, v_u = index
     B = lin.blocks
     J = jnp.zeros((n, n), flat.dtype)
     if lin.coupling is not None:
@@ -233,8 +238,8 @@ def dense_reference(lin: CableLinearisation, state):
 
         coupling_columns = jax.jacfwd(coupled)(jnp.zeros_like(r_flat))  # (cables, rows, rocket)
     for c in range(q_r.shape[0]):
-        iq = jnp.concatenate([q_r[c].reshape(-1), q_s[c].reshape(-1), q_u[c].reshape(-1)])
-        iv = jnp.concatenate([v_r[c].reshape(-1), v_s[c].reshape(-1), v_u[c].reshape(-1)])
+        iq = jnp.concatenate([q_r[c].reshape(-1), q_s[c].reshape(-1), q_h[c].reshape(-1), q_u[c].reshape(-1)])
+        iv = jnp.concatenate([v_r[c].reshape(-1), v_s[c].reshape(-1), v_h[c].reshape(-1), v_u[c].reshape(-1)])
         n_r = q_r[c].size
 
         def full(tri, rz, zz):
