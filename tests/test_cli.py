@@ -78,6 +78,10 @@ def test_bad_values_found_after_parsing_exit_2_naming_the_flag(capsys):
     assert capsys.readouterr().err.startswith("jaxcable land: error: --brake-profile needs --fidelity rigid")
     assert main(["land", "--phase", "full", "--fidelity", "1dof"]) == 2
     assert capsys.readouterr().err == "jaxcable land: error: --phase full needs --fidelity rigid, ale or full\n"
+    assert main(["land", "--fidelity", "rigid", "--hook-contact", "node"]) == 2
+    assert capsys.readouterr().err.startswith("jaxcable land: error: --hook-contact node needs --fidelity ale or full")
+    assert main(["land", "--phase", "full", "--fidelity", "ale", "--hook-contact", "node"]) == 2
+    assert capsys.readouterr().err == "jaxcable land: error: --hook-contact applies to --phase passive only\n"
 
 
 def test_no_cache_flag_before_or_after_the_command():

@@ -34,7 +34,6 @@ import numpy as np
 from jaxcable.components.ale import AleCable, axial_tension_factor, strain_energy_density
 from jaxcable.components.contact import (
     DEFAULT_LOAD,
-    DEFAULT_PENETRATION,
     _capsule_contact,
 )
 from jaxcable.core.math import safe_norm
@@ -55,11 +54,14 @@ from jaxcable.arresting.layout import HOOK_OF_CABLE, ArrestingLayout, span_endpo
 __all__ = ["AleCables", "HookPoints", "MasslessCables", "throat_weights"]
 
 
-RING_STIFFNESS_N_PER_M = 1.5 * DEFAULT_LOAD / DEFAULT_PENETRATION
-"""Stiffness of the ring that holds a hook node at its throat (``AleCables(hook_contact="node")``)
-[N/m]: the capsule contact's tangent stiffness at its design load, ``e F0 / delta0`` = 9e7 N/m
-(:mod:`jaxcable.components.contact`: 3e5 N per hook at 5 mm, a stranded rope's lateral
-flattening), so the two hook models deflect alike under the same load."""
+def ring_stiffness(law):
+    """Stiffness of the ring that holds a hook node at its throat (``AleCables(hook_contact="node")``)
+    [N/m]: the contact law's tangent stiffness at the design load ``F0`` (``DEFAULT_LOAD``),
+    ``e F0 / delta(F0)`` with ``delta(F0) = (F0 / k)^(1/e)``: 9e7 N/m for the default law (3e5 N
+    per hook at 5 mm, a stranded rope's lateral flattening, :mod:`jaxcable.components.contact`),
+    so the two hook models deflect alike near the design load, and scaling the law's ``k`` scales
+    the ring (by ``2^(1/e)`` for ``k x 2``)."""
+    return law.e * DEFAULT_LOAD / (DEFAULT_LOAD / law.k) ** (1.0 / law.e)
 
 
 def _fractions_fine_at_end(n_elements: int, n_fine: int, half_width: float, total: float):
@@ -303,8 +305,6 @@ class AleCables(eqx.Module):
     throat_w: jax.Array | None = None
     """(3,) affine weights of the throat on a hook's (hinge, tip, barb end) (:func:`throat_weights`);
     used by ``hook_contact="node"``."""
-    ring_stiffness_N_per_m: jax.Array = eqx.field(converter=jnp.asarray, default=RING_STIFFNESS_N_PER_M)
-    """Stiffness of the ring that holds a hook node at its throat [N/m] (``hook_contact="node"``)."""
 
     def __check_init__(self):
         if self.wind is not None and self.aero is None:
@@ -483,7 +483,7 @@ class AleCables(eqx.Module):
         """The hook as a sliding node: each cable's hook node ``r_h`` (a coordinate, its material
         coordinate ``s_h`` free) is held at its hook's throat ``C`` (:func:`throat_weights`) by a
         ring, ``F = -k d - c k |d| d_dot`` on the node with ``d = r_h - C``: a linear spring
-        (``ring_stiffness_N_per_m``) with Hunt-Crossley damping, proportional to the spring's force
+        (:func:`ring_stiffness` of the contact law) with Hunt-Crossley damping, proportional to the spring's force
         through the contact law's factor ``c`` (0.2 s/m: 6e4 N s/m at the 3e5 N design load, the
         capsule contact's), so that the force does not jump when the hook meets the cable at rest
         (a linear damper would put ``c v`` = 1.2 MN on it at t = 0 of the design case), and the
@@ -502,7 +502,7 @@ class AleCables(eqx.Module):
         node, s_slot, h_slots, n_slow = self._node_slots()
         C, C_dot = _engaged_throats(hooks, self.throat_w)
         d, d_dot = kin.r[:, node] - C, kin.v[:, node] - C_dot
-        spring = self.ring_stiffness_N_per_m * d
+        spring = ring_stiffness(self.contact) * d
         ring = -spring - (self.contact.c * safe_norm(spring))[:, None] * d_dot  # on the node (4, 3)
         load = safe_norm(ring)
 

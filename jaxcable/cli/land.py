@@ -74,6 +74,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("--cable-damping", type=cable_damping(), default=DEFAULT_CABLE_DAMPING_S, help=f"cables' stiffness-proportional damping beta [s] (levels rigid, ale, full; default {DEFAULT_CABLE_DAMPING_S:g} = 'calibrated', fitted to the paper's section III.F, docs/arresting_validation.md; the paper prints none, a_max depends on it: 1e-5 leaves the cables' mode ringing; ale/full: from 5e-4 s (ale) or 1e-3 s (full) on, the W-method rosw runs by default, its steps free of the explicit stability limit)")
     p.add_argument("--span-elements", type=int, default=DEFAULT_SPAN_ELEMENTS, help=f"ALE elements per arresting span (levels ale, full; default {DEFAULT_SPAN_ELEMENTS}: a_max converged within 1.1%%, docs/arresting_validation.md)")
     p.add_argument("--fine-elements", type=int, default=DEFAULT_FINE_ELEMENTS, help=f"of those, equal fine elements over +-3 m around the hook (levels ale, full; default {DEFAULT_FINE_ELEMENTS} = 0.375 m; --span-elements 16 --fine-elements 8 run about 1.5x faster and put a_max 6%% low)")
+    p.add_argument("--hook-contact", choices=["capsule", "node"], default="capsule", help="how a hook holds its cable (levels ale, full; --phase passive): capsule (default), the Hertz/Coulomb contact of the hook's capsules with every span element, or node, the hook as a sliding node of its cable (no push along a kinked cable; docs/arresting_validation.md)")
     p.add_argument("--t-end", type=positive("--t-end"), default=2.0, help="time simulated after capture [s] (default 2)")
     p.add_argument("--solver", choices=sorted(SOLVERS), default=None, help="diffrax solver (default per level)")
     p.add_argument("--rtol", type=positive("--rtol"), default=None, help="relative = absolute tolerance (default per level)")
@@ -134,7 +135,9 @@ def _passive(args: argparse.Namespace) -> Report:
     )  # fmt: skip
     level_options = {} if args.fidelity == "1dof" else dict(cable_damping_s=args.cable_damping)
     if args.fidelity in ("ale", "full"):
-        level_options.update(n_span_elements=args.span_elements, n_fine=args.fine_elements)
+        level_options.update(n_span_elements=args.span_elements, n_fine=args.fine_elements, hook_contact=args.hook_contact)
+    elif args.hook_contact != "capsule":
+        raise ValueError(f"--hook-contact {args.hook_contact} needs --fidelity ale or full (the {args.fidelity} level has no cable nodes)")
     landing = run_landing(
         args.fidelity,
         capture,
@@ -170,6 +173,8 @@ def _two_phase(args: argparse.Namespace) -> Report:
         raise ValueError("--phase full needs --fidelity rigid, ale or full")
     if (args.span_elements, args.fine_elements) != (DEFAULT_SPAN_ELEMENTS, DEFAULT_FINE_ELEMENTS):
         raise ValueError("--span-elements/--fine-elements apply to --phase passive only")
+    if args.hook_contact != "capsule":
+        raise ValueError("--hook-contact applies to --phase passive only")
     terminal = CaptureState(
         x_m=args.x, y_m=args.y, vx_m_s=args.vx, vy_m_s=args.vy,
         theta_x_deg=args.theta_x, theta_y_deg=args.theta_y, theta_z_deg=args.theta_z,

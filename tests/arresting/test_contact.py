@@ -728,9 +728,9 @@ def test_a_peg_under_the_kink_pushes_across_the_cable_only():
     reason="the capsule contact of straight elements pushes along a kinked cable: a frictionless peg "
     "off the kink node gives 12-25% of its normal force along the cable (the continuum: none), which "
     "makes the two legs' tensions unequal without friction; measured on the deviated case by "
-    "experiments/hook_contact_anatomy.py (docs/arresting_validation.md). Fixed by a contact whose "
-    "normal is perpendicular to the cable's tangent (the hook as a sliding node, or a smoothed cable "
-    "curve for the contact); not built",
+    "experiments/hook_contact_anatomy.py (docs/arresting_validation.md). A limit of this contact: the "
+    "hook as a sliding node (AleCables(hook_contact='node')) has none, "
+    "tests/arresting/test_hook_node.py::test_a_frictionless_hook_node_carries_equal_tensions_on_both_legs",
 )
 @pytest.mark.parametrize("peg_x", [0.05 * 0.375, 0.5 * 0.375])
 def test_a_frictionless_peg_pushes_across_the_cable_only(peg_x):
