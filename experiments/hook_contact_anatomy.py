@@ -22,9 +22,15 @@ two elements meet at a kink on the hook, the share of the normal force that one 
 pushes along the other (``F sin(alpha)`` at a kink of ``alpha``), which the continuum, whose normal is
 perpendicular to one tangent, never does.
 
+``--hook-contact node`` takes apart the hook as a sliding node instead (``AleCables``,
+``hook_contact="node"``): the ring's load, the friction on the material sliding through the node and
+the two legs' tensions at the node against the capstan bound of the wrap there (the node's own bend
+and the wrap between the elements three beyond it); writes ``hook_contact_anatomy_node.{json,md}``.
+
 Writes ``hook_contact_anatomy.{json,md}``. Usage (about 10 min on 2 cores):
 
     python experiments/hook_contact_anatomy.py
+    python experiments/hook_contact_anatomy.py --hook-contact node
     python experiments/hook_contact_anatomy.py --variants default --times 0.14 --out experiments/out
 """
 
@@ -58,9 +64,9 @@ class _WholeStateScene(PassiveLandingScene):
         return state
 
 
-def run_variant(variant, times, t_end, iva_kwargs, level="ale"):
+def run_variant(variant, times, t_end, iva_kwargs, level="ale", hook_contact="capsule"):
     beta = C.CALIBRATED_CABLE_DAMPING_S
-    kw = dict(cable_damping_s=beta, **variant_kwargs(variant, level, beta), **iva_kwargs)
+    kw = dict(cable_damping_s=beta, hook_contact=hook_contact, **variant_kwargs(variant, level, beta), **iva_kwargs)
     scene = passive_landing_scene(level, t_end_s=t_end, **kw)
     scene = _WholeStateScene(**{f.name: getattr(scene, f.name) for f in dataclasses.fields(scene)})
     solver, rtol, atol, steps = level_solver_settings(level, beta)
@@ -132,6 +138,62 @@ def decompose(scene, state, t, cable):
     }  # fmt: skip
 
 
+def decompose_node(scene, state, t, cable):
+    """The hook node of ``cable`` at ``state`` (``hook_contact="node"``): one row of the report."""
+    cab = scene.cables
+    mu_s = float(cab.contact.mu_s)
+    area = float(scene.cables_area())
+    kin = cab.kinematics(state.cables)
+    hooks = scene.hooks(state.rocket)
+    node = cab._node_slots()[0]
+    Q = cab._node_contact(kin, hooks)[0]  # on the slow coordinates: s_h's friction, the node's ring + friction
+    tension = np.asarray(jax.vmap(lambda sub, k: sub.element_tensions(k))(cab.subsystems, kin))[cable]
+    lo, hi = cab.span_slice
+    r = np.asarray(kin.r[cable])
+    axis = np.diff(r, axis=0)
+    axis = axis / np.linalg.norm(axis, axis=1, keepdims=True)
+
+    def angle(a, b):
+        a, b = max(a, lo), min(b, hi - 1)
+        return float(np.arccos(np.clip(axis[a] @ axis[b], -1.0, 1.0)))
+
+    legs = tension[node - 1], tension[node]
+    low, high = float(min(legs)), float(max(legs))
+    bend, wrap = angle(node - 1, node), angle(node - 3, node + 2)
+    s_slot = cab._node_slots()[1]
+    return {
+        "t_s": float(t), "ring_kN": float(np.linalg.norm(np.asarray(Q)[cable, 5:8])) / 1e3,
+        "friction_s_kN": float(np.asarray(Q)[cable, s_slot]) / 1e3,
+        "leg_difference_kN": float(legs[1] - legs[0]) / 1e3, "leg_low_mpa": low / area / 1e6, "leg_high_mpa": high / area / 1e6,
+        "leg_ratio": high / low, "span_max_mpa": float(tension[lo:hi].max()) / area / 1e6, "bend_rad": bend, "wrap_rad": wrap,
+        "capstan": float(np.exp(mu_s * max(bend, wrap))),
+    }  # fmt: skip
+
+
+def write_md_node(data, path):
+    L = ["# The hook node of the most loaded cable of the deviated case", "", *_report.header(data), ""]
+    L += [
+        (
+            "Section IV.A's deviated case, scenario I, ale level, calibrated cable damping, hooks as sliding nodes, "
+            f"integrated to {data['t_end_s']:g} s; cable {data['cable']}. Per instant: the ring's load on the node "
+            "(with the friction's reaction), the friction's force on the node's material coordinate, the two "
+            "elements' tensions at the node and their ratio, the bend at the node, the wrap between the elements "
+            "three beyond it, and the capstan bound exp(mu_s theta) of the larger. A ratio above the bound is marked *."
+        ),
+        "",
+        "| fine elements | t [s] | ring [kN] | friction on s [kN] | leg difference [kN] | legs [MPa] | ratio | capstan | bend, wrap [rad] | span max [MPa] |",
+        "|---|---:|---:|---:|---:|---|---:|---:|---|---:|",
+    ]
+    for r in data["rows"]:
+        mark = "*" if r["leg_ratio"] > r["capstan"] else ""
+        L.append(
+            f"| {MESH.get(r['variant'], r['variant'])} | {r['t_s']:.3f} | {r['ring_kN']:.0f} | {r['friction_s_kN']:+.1f} | "
+            f"{r['leg_difference_kN']:+.1f} | {r['leg_low_mpa']:.0f} / {r['leg_high_mpa']:.0f} | {r['leg_ratio']:.3f}{mark} | "
+            f"{r['capstan']:.3f} | {r['bend_rad']:.2f}, {r['wrap_rad']:.2f} | {r['span_max_mpa']:.0f} |"
+        )
+    _report.write_lines(path, L)
+
+
 def write_md(data, path):
     L = ["# The hook's contact forces on the most loaded cable of the deviated case", "", *_report.header(data), ""]
     L += [
@@ -171,20 +233,24 @@ def main():
     p.add_argument("--t-end", type=float, default=0.2, help="simulated time [s] (default 0.2)")
     p.add_argument("--cable", type=int, default=0, help="cable taken apart (default 0, the most loaded)")
     p.add_argument("--out", default=None)
+    p.add_argument("--hook-contact", choices=["capsule", "node"], default="capsule",
+                   help="the hook model taken apart (default capsule; node: the hook as a sliding node)")
     args = p.parse_args()
     enable_x64()
     out = _report.output_dir(args.out)
+    node = args.hook_contact == "node"
+    stem = STEM + ("_node" if node else "")
     data = _report.start(precision=_report.precision(), t_end_s=args.t_end, cable=args.cable, rows=[])
     iva = iva_passive_kwargs()
     for variant in args.variants:
-        scene, res = run_variant(variant, args.times, args.t_end, iva)
+        scene, res = run_variant(variant, args.times, args.t_end, iva, hook_contact=args.hook_contact)
         for j, t in enumerate(np.asarray(res.snapshot_ts)):
             state = jax.tree_util.tree_map(lambda x, j=j: x[j], res.snapshots)
-            row = dict(variant=variant, **decompose(scene, state, t, args.cable))
+            row = dict(variant=variant, **(decompose_node if node else decompose)(scene, state, t, args.cable))
             data["rows"].append(row)
             print(row, flush=True)
-        _report.save(data, out, STEM)
-    _report.finish(data, out, STEM, write_md)
+        _report.save(data, out, stem)
+    _report.finish(data, out, stem, write_md_node if node else write_md)
 
 
 if __name__ == "__main__":

@@ -727,10 +727,8 @@ class AleCables(eqx.Module):
         blocks of ``K = dQ/dq`` and ``C = dQ/dq_dot`` of :meth:`cable_forces` and of the mass:
 
         * internal nodes: block-tridiagonal ``(lower, diag, upper)`` (4, n_int, 3, 3);
-        * the slow coordinates' columns (4, n_int, 3, n_slow) and block (4, n_slow, n_slow); their
-          rows are taken as the columns' transpose (exact for the elastic and Rayleigh terms, which
-          derive from a potential and a dissipation function; a W-method keeps its order with any
-          approximation);
+        * the slow coordinates' columns (4, n_int, 3, n_slow), rows (``K_zr``, ``C_zr``, stored
+          transposed in the same layout) and block (4, n_slow, n_slow);
         * mass: the internal-node tridiagonal (4, n_int) x3, ``M_rs``, ``M_ss``.
 
         Element by element: every force in :meth:`cable_forces` acts on one element's two ends and
@@ -755,7 +753,7 @@ class AleCables(eqx.Module):
             C_z, C_zd = self._contact_element_jacobians(kin, hooks, picked)  # (4, n_span, 8, 8) each
             J_z = J_z.at[:, lo:hi].add(C_z)
             J_zd = J_zd.at[:, lo:hi].add(C_zd)
-        (K_rr, C_rr), (K_rz, C_rz), (K_zz, C_zz) = jax.vmap(lambda sub, q, qd, a, b: sub.assemble_stiff_blocks(q, qd, a, b))(
+        (K_rr, C_rr), (K_rz, C_rz), (K_zz, C_zz), (K_zr, C_zr) = jax.vmap(lambda sub, q, qd, a, b: sub.assemble_stiff_blocks(q, qd, a, b))(
             self.subsystems, state.q, state.qdot, J_z, J_zd
         )  # fmt: skip
         if self.hook_contact == "node":
@@ -767,7 +765,10 @@ class AleCables(eqx.Module):
             return sub.internal_mass_blocks(kin), sub.slow_mass_blocks(kin)
 
         M_rr, (M_rs, M_ss) = jax.vmap(masses)(self.subsystems, kin)
-        return dict(K_rr=K_rr, C_rr=C_rr, K_rz=K_rz, C_rz=C_rz, K_zz=K_zz, C_zz=C_zz, M_rr=M_rr, M_rs=M_rs, M_ss=M_ss)
+        return dict(
+            K_rr=K_rr, C_rr=C_rr, K_rz=K_rz, C_rz=C_rz, K_zz=K_zz, C_zz=C_zz, K_zr=K_zr, C_zr=C_zr, M_rr=M_rr,
+            M_rs=M_rs, M_ss=M_ss,
+        )  # fmt: skip
 
     def energies(self, state: CableState, hooks: HookPoints):
         def one(sub, q, qdot):

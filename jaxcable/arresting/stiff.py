@@ -82,7 +82,7 @@ class CableLinearisation(eqx.Module):
             (beta**2) * m[..., None, None] * I3 - beta * c - k for m, c, k in zip(B["M_rr"], B["C_rr"], B["K_rr"])
         )
         A_rz = (beta**2) * B["M_rs"] - beta * B["C_rz"] - B["K_rz"]  # (4, n, 3, n_slow)
-        A_zr = (beta**2) * B["M_rs"] - beta * B["C_rz"] - B["K_rz"]  # rows: the columns' transpose
+        A_zr = (beta**2) * B["M_rs"] - beta * B["C_zr"] - B["K_zr"]  # the slow rows, transposed (the mass is symmetric)
         A_zz = (beta**2) * B["M_ss"] - beta * B["C_zz"] - B["K_zz"]
         active = list(self.active)
         if active:  # prescribed rates: the row is beta^2 x = beta b
@@ -155,7 +155,7 @@ class _CableFactors(eqx.Module):
         )
         g_z = (
             beta * (_zr(B["M_rs"], bv_r) + _zz(B["M_ss"], bv_z))
-            + _zr(B["K_rz"], bq_r)
+            + _zr(B["K_zr"], bq_r)
             + _zz(B["K_zz"], bq_z)
         )
         if self.lin.coupling is not None:
@@ -242,15 +242,15 @@ def dense_reference(lin: CableLinearisation, state):
         iv = jnp.concatenate([v_r[c].reshape(-1), v_s[c].reshape(-1), v_h[c].reshape(-1), v_u[c].reshape(-1)])
         n_r = q_r[c].size
 
-        def full(tri, rz, zz):
+        def full(tri, rz, zr, zz):
             top = jnp.concatenate([banded.dense(*tri), rz.reshape(n_r, -1)], axis=1)
-            bottom = jnp.concatenate([rz.reshape(n_r, -1).T, zz], axis=1)
+            bottom = jnp.concatenate([zr.reshape(n_r, -1).T, zz], axis=1)
             return jnp.concatenate([top, bottom], axis=0)
 
         I3 = jnp.eye(3, dtype=flat.dtype)
-        M = full(tuple(m[c][:, None, None] * I3 for m in B["M_rr"]), B["M_rs"][c], B["M_ss"][c])
-        K = full(tuple(k[c] for k in B["K_rr"]), B["K_rz"][c], B["K_zz"][c])
-        C = full(tuple(k[c] for k in B["C_rr"]), B["C_rz"][c], B["C_zz"][c])
+        M = full(tuple(m[c][:, None, None] * I3 for m in B["M_rr"]), B["M_rs"][c], B["M_rs"][c], B["M_ss"][c])
+        K = full(tuple(k[c] for k in B["K_rr"]), B["K_rz"][c], B["K_zr"][c], B["K_zz"][c])
+        C = full(tuple(k[c] for k in B["C_rr"]), B["C_rz"][c], B["C_zr"][c], B["C_zz"][c])
         JK, JC = jnp.linalg.solve(M, K), jnp.linalg.solve(M, C)
         if lin.active:  # prescribed rates: zero rows
             rows = jnp.asarray([n_r + a for a in lin.active])

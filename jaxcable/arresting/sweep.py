@@ -202,9 +202,16 @@ class PassiveCaseFunction(AbstractLandingCaseFunction):
     """Seed of the gusts (each case's key folds in its inputs, so a case reproduces anywhere)."""
     cable_damping_s: float = eqx.field(static=True, default=DEFAULT_CABLE_DAMPING_S)
     """The cables' stiffness-proportional damping beta [s] (not in the paper; a_max depends on it)."""
+    hook_contact: str = eqx.field(static=True, default="capsule")
+    """How a hook holds its cable at the ``ale``/``full`` levels: ``"capsule"`` or ``"node"`` (the
+    hook as a sliding node, :class:`~jaxcable.arresting.cable_sets.AleCables`)."""
 
     def __check_init__(self):
         check_choice("fidelity", self.fidelity, SWEEP_FIDELITIES)
+        if self.hook_contact not in ("capsule", "node"):
+            raise ValueError(f"hook_contact must be 'capsule' or 'node', got {self.hook_contact!r}")
+        if self.hook_contact == "node" and self.fidelity == "rigid":
+            raise ValueError("hook_contact='node' needs fidelity 'ale' or 'full' (the rigid level's cables have no nodes)")
         check_positive("cable_damping_s", self.cable_damping_s, allow_zero=True)
         check_positive("t_end_s", self.t_end_s)
         check_positive("rtol", self.rtol)
@@ -231,6 +238,7 @@ class PassiveCaseFunction(AbstractLandingCaseFunction):
         return passive_landing_scene(
             self.fidelity, capture, self.layout, self.buffer, t_end_s=self.t_end_s,
             cable_damping_s=self.cable_damping_s, **air,
+            **({"hook_contact": self.hook_contact} if self.host_build else {}),
         )  # fmt: skip
 
     def _simulate(self, scene):
@@ -293,6 +301,7 @@ class PassiveCaseFunction(AbstractLandingCaseFunction):
             layout={k: np.asarray(getattr(self.layout, k)).tolist() for k in self.layout.__dataclass_fields__},
             # only when changed, so that sweeps written before the field existed still resume
             **({} if self.cable_damping_s == DEFAULT_CABLE_DAMPING_S else dict(cable_damping_s=self.cable_damping_s)),
+            **({} if self.hook_contact == "capsule" else {"hook_contact": self.hook_contact}),
         )
 
 
@@ -329,6 +338,7 @@ def passive_case_fn(
     wind: bool = True,
     seed: int = 0,
     cable_damping_s: float = DEFAULT_CABLE_DAMPING_S,
+    hook_contact: str = "capsule",
 ) -> PassiveCaseFunction:
     """The passive-phase case function with Table 1 defaults and the level's solver settings
     (:func:`jaxcable.arresting.landing.level_solver_settings` of the level and ``cable_damping_s``
@@ -370,6 +380,7 @@ def passive_case_fn(
         wind=bool(wind),
         seed=int(seed),
         cable_damping_s=float(cable_damping_s),
+        hook_contact=hook_contact,
     )
 
 

@@ -596,10 +596,17 @@ class TwoPhaseCaseFunction(AbstractLandingCaseFunction):
     criteria: LandingCriteria = eqx.field(static=True, default=LandingCriteria())
     cable_damping_s: float = eqx.field(static=True, default=DEFAULT_CABLE_DAMPING_S)
     """The cables' stiffness-proportional damping beta [s] in the passive phase (not in the paper)."""
+    hook_contact: str = eqx.field(static=True, default="capsule")
+    """How a hook holds its cable in an ``ale``/``full`` passive phase: ``"capsule"`` or ``"node"``
+    (the hook as a sliding node, :class:`~jaxcable.arresting.cable_sets.AleCables`)."""
 
     def __check_init__(self):
         check_positive("cable_damping_s", self.cable_damping_s, allow_zero=True)
         check_choice("fidelity", self.fidelity, ("rigid", "ale", "full"))
+        if self.hook_contact not in ("capsule", "node"):
+            raise ValueError(f"hook_contact must be 'capsule' or 'node', got {self.hook_contact!r}")
+        if self.hook_contact == "node" and self.fidelity == "rigid":
+            raise ValueError("hook_contact='node' needs fidelity 'ale' or 'full' (the rigid level's cables have no nodes)")
 
     @property
     def host_build(self) -> bool:
@@ -635,7 +642,7 @@ class TwoPhaseCaseFunction(AbstractLandingCaseFunction):
         track, out1 = _tracking_jit(scene)
         passive = passive_landing_scene(
             self.fidelity, buffer=self.buffer, t_end_s=self.t_end_s, cable_damping_s=self.cable_damping_s,
-            **_passive_kwargs(scene, out1),
+            hook_contact=self.hook_contact, **_passive_kwargs(scene, out1),
         )  # fmt: skip
         return out1, _tracking_histories(track), passive
 
@@ -715,11 +722,13 @@ class TwoPhaseCaseFunction(AbstractLandingCaseFunction):
                     t_end_s=self.t_end_s, gain_per_s=float(self.gain_per_s),
                     m_w=float(self.buffer.counterweight_mass_kg), F_f=float(self.buffer.brake_force_N),
                     tracking=tracking,
-                    **({} if self.cable_damping_s == DEFAULT_CABLE_DAMPING_S else dict(cable_damping_s=self.cable_damping_s)))  # fmt: skip
+                    **({} if self.cable_damping_s == DEFAULT_CABLE_DAMPING_S else dict(cable_damping_s=self.cable_damping_s)),
+                    **({} if self.hook_contact == "capsule" else {"hook_contact": self.hook_contact}))  # fmt: skip
 
 
 def two_phase_case_fn(fidelity="rigid", *, scenario="I", seed=0, buffer=None, layout=None, gain_per_s=None,
-                      t_end_s=2.0, solver=None, rtol=None, max_steps=None, cable_damping_s=DEFAULT_CABLE_DAMPING_S, **_ignored):  # fmt: skip
+                      t_end_s=2.0, solver=None, rtol=None, max_steps=None, cable_damping_s=DEFAULT_CABLE_DAMPING_S,
+                      hook_contact="capsule", **_ignored):  # fmt: skip
     """The two-phase case function with the scenario's controller gain and Table 1's buffer; registered
     as ``"arresting.full"`` (``phase="full"`` of :func:`jaxcable.arresting.sweep.case_fn_for`)."""
     check_choice("scenario", scenario, SCENARIO_SETTINGS)
@@ -730,7 +739,7 @@ def two_phase_case_fn(fidelity="rigid", *, scenario="I", seed=0, buffer=None, la
         layout=ArrestingLayout() if layout is None else layout,
         gain_per_s=SCENARIO_SETTINGS[scenario]["gain_per_s"] if gain_per_s is None else gain_per_s,
         scenario=scenario, fidelity=fidelity, seed=int(seed), t_end_s=float(t_end_s),
-        cable_damping_s=float(cable_damping_s),
+        cable_damping_s=float(cable_damping_s), hook_contact=hook_contact,
     )  # fmt: skip
 
 

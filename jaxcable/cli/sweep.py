@@ -61,6 +61,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("--rtol", type=positive("--rtol"), default=None, help="relative = absolute tolerance (default per level)")
     p.add_argument("--max-steps", type=positive_int("--max-steps"), default=None, help="solver step budget per case (default per level)")
     p.add_argument("--cable-damping", type=cable_damping(), default=DEFAULT_CABLE_DAMPING_S, help=f"cables' stiffness-proportional damping beta [s] (default {DEFAULT_CABLE_DAMPING_S:g} = 'calibrated', fitted to the paper's section III.F, docs/arresting_validation.md; the paper prints none, a_max depends on it: 1e-5 leaves the cables' mode ringing)")
+    p.add_argument("--hook-contact", choices=["capsule", "node"], default="capsule", help="how a hook holds its cable (--fidelity ale, full): capsule (default), the Hertz/Coulomb contact of the hook's capsules with every span element, or node, the hook as a sliding node of its cable (docs/arresting_validation.md)")
     p.add_argument("--plot", metavar="PREFIX", help="write PREFIX_plane.png (Fig 21), PREFIX_histories.png (Figs 18-20) and, with --phase full, PREFIX_tracking.png (Figs 15-17)")
     p.add_argument("--plot-cases", type=positive_int("--plot-cases"), default=32, help="cases in the histories and tracking plots (default 32)")
     p.add_argument("--process-index", type=int, default=None, help="this host's index in a multi-host sweep (default: jax.process_index())")
@@ -109,7 +110,8 @@ def run(args: argparse.Namespace) -> Report:
         path = Path(out)
         out = str(path.with_name(f"{path.stem}.p{p_index}of{p_count}{path.suffix}"))
     case_kwargs = dict(
-        t_end_s=args.t_end, solver=args.solver, rtol=args.rtol, max_steps=args.max_steps, cable_damping_s=args.cable_damping
+        t_end_s=args.t_end, solver=args.solver, rtol=args.rtol, max_steps=args.max_steps, cable_damping_s=args.cable_damping,
+        hook_contact=args.hook_contact,
     )
     table = run_qmc_sweep(
         args.scenario,

@@ -12,18 +12,22 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-import pytest
 from jax.flatten_util import ravel_pytree
 
+from jaxcable import simulate
 from jaxcable.arresting.buffer import BufferDevice
-from jaxcable.arresting.cables import CableCoords, CableRoute, CableState, CableSubsystem
+from jaxcable.arresting.cables import (
+    CableCoords,
+    CableRoute,
+    CableState,
+    CableSubsystem,
+)
 from jaxcable.arresting.passive import passive_landing_scene
 from jaxcable.arresting.stiff import dense_reference
 from jaxcable.components.ale import AleCable
 from jaxcable.components.contact import ContactLaw
 from jaxcable.core.config import enable_x64
 from jaxcable.core.rosenbrock import RosenbrockW
-from jaxcable import simulate
 
 enable_x64()
 
@@ -93,7 +97,7 @@ def test_undamped_cable_on_a_conservative_ring_conserves_energy():
         diffrax.ODETerm(field), diffrax.Tsit5(), 0.0, 0.2, None, y0,
         stepsize_controller=diffrax.PIDController(rtol=1e-9, atol=1e-9), saveat=diffrax.SaveAt(ts=ts), max_steps=200_000,
     )  # fmt: skip
-    e = np.array([float(energy(jax.tree_util.tree_map(lambda x: x[i], sol.ys))) for i in range(5)])
+    e = np.array([float(energy(jax.tree_util.tree_map(lambda x, i=i: x[i], sol.ys))) for i in range(5)])
     swing = 0.5 * k * 0.17  # the ring's initial energy [J]
     assert np.max(np.abs(e - e[0])) < 1e-6 * swing, (e - e[0]) / swing
     assert float(jnp.max(jnp.abs(sol.ys.q.s[-1, 2] - q0.s[2]))) > 1e-3  # material slid through the hook node
@@ -141,7 +145,7 @@ def test_a_frictionless_hook_node_carries_equal_tensions_on_both_legs():
 # --- the landing scene with hook nodes ------------------------------------------------------------
 
 T_END = 0.01  # [s]
-MESH = dict(n_span_elements=4, n_fine=2)
+MESH = {"n_span_elements": 4, "n_fine": 2}
 
 
 def _scene(contact=None, beta=1e-3, **kw):
@@ -178,7 +182,7 @@ def test_node_blocks_equal_the_dense_jacobian_of_the_cable_forces():
     jac_r, jac_z = jax.jit(jax.jacfwd(forces, argnums=(0, 1)))(y.cables.q, y.cables.qdot)
     # the ring's stiffness on the node (9e7 N/m) and its Hunt-Crossley damping (0.2 s/m x the
     # spring's 2e6 N at the node's 2.2 cm offset: 4e5 N s/m)
-    for arg, rz, zz, least in ((0, "K_rz", "K_zz", 5e7), (1, "C_rz", "C_zz", 2e5)):
+    for arg, rz, zr, zz, least in ((0, "K_rz", "K_zr", "K_zz", 5e7), (1, "C_rz", "C_zr", "C_zz", 2e5)):
 
         def slow(d):
             return np.concatenate([np.asarray(d.s), np.asarray(d.h).reshape(d.h.shape[:-2] + (-1,)), np.asarray(d.u)[..., None]], axis=-1)  # fmt: skip
@@ -188,6 +192,9 @@ def test_node_blocks_equal_the_dense_jacobian_of_the_cable_forces():
         for c in range(4):
             np.testing.assert_allclose(np.asarray(blocks[rz])[c], cols_r[c, :, :, c], atol=1e-9 * np.abs(cols_r).max())
             np.testing.assert_allclose(np.asarray(blocks[zz])[c], cols_z[c, :, c], atol=1e-9 * np.abs(cols_z).max())
+            # the border's rows (stored transposed, as the columns): d Q_slow / d r
+            rows_z = np.transpose(np.asarray(jac_z[arg].r)[c, :, c], (1, 2, 0))  # (n, 3, n_slow)
+            np.testing.assert_allclose(np.asarray(blocks[zr])[c], rows_z, atol=1e-9 * np.abs(rows_z).max())
 
 
 def test_node_structured_step_equals_the_dense_reference():

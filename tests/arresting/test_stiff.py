@@ -72,7 +72,7 @@ def test_blocks_equal_the_dense_jacobian_of_the_cable_forces(mass_scale, rtol):
     # output first: (d Q_r / d (q, qdot), d Q_slow / d (q, qdot))
     jac_r, jac_z = jax.jit(jax.jacfwd(forces, argnums=(0, 1)))(q, qdot)
     n = q.r.shape[1]
-    for arg, tri, rz, zz in ((0, "K_rr", "K_rz", "K_zz"), (1, "C_rr", "C_rz", "C_zz")):
+    for arg, tri, rz, zr, zz in ((0, "K_rr", "K_rz", "K_zr", "K_zz"), (1, "C_rr", "C_rz", "C_zr", "C_zz")):
         d_rr = np.asarray(jac_r[arg].r)  # (4, n, 3, 4, n, 3)
         lower, diag, upper = (np.asarray(b) for b in blocks[tri])
         scale = np.abs(d_rr).max()
@@ -94,6 +94,9 @@ def test_blocks_equal_the_dense_jacobian_of_the_cable_forces(mass_scale, rtol):
         for c in range(4):
             np.testing.assert_allclose(np.asarray(blocks[rz])[c], cols_r[c, :, :, c], atol=rtol * np.abs(cols_r).max())
             np.testing.assert_allclose(np.asarray(blocks[zz])[c], cols_z[c, :, c], atol=rtol * np.abs(cols_z).max())
+            # the border's rows (stored transposed, as the columns): d Q_slow / d r
+            rows_z = np.transpose(np.asarray(jac_z[arg].r)[c, :, c], (1, 2, 0))  # (n, 3, n_slow)
+            np.testing.assert_allclose(np.asarray(blocks[zr])[c], rows_z, atol=rtol * np.abs(rows_z).max())
 
 
 # h = 2e-3 s in the slow tier (each case 80-120 s on 2 cores; the same code path at another step)
