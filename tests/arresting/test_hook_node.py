@@ -12,6 +12,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 from jax.flatten_util import ravel_pytree
 
 from jaxcable import simulate
@@ -232,3 +233,19 @@ def test_landing_with_hook_nodes_closes_the_energy_budget():
     out = scene.summarize(res)
     assert float(np.max(np.asarray(res.probes["hook_normal_force_N"]))) > 1e4
     assert out["energy_budget_error"] < 1e-4
+
+
+def test_sweeps_carry_the_hook_model_in_their_identity():
+    """A sweep's rows resume only under the same hook model: ``describe`` names it when it is the
+    node (and stays as before for the capsule, so earlier sweeps still resume); the rigid level,
+    whose cables have no nodes, refuses it."""
+    from jaxcable.arresting.sweep import passive_case_fn
+    from jaxcable.arresting.two_phase import two_phase_case_fn
+
+    for factory in (passive_case_fn, two_phase_case_fn):
+        assert factory("ale", hook_contact="node").describe()["hook_contact"] == "node"
+        assert "hook_contact" not in factory("ale").describe()
+        with pytest.raises(ValueError, match="hook_contact='node' needs fidelity 'ale' or 'full'"):
+            factory("rigid", hook_contact="node")
+        with pytest.raises(ValueError, match="hook_contact must be 'capsule' or 'node'"):
+            factory("full", hook_contact="ring")
