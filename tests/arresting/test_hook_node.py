@@ -223,6 +223,9 @@ def test_node_structured_step_equals_the_dense_reference():
     np.testing.assert_allclose(np.asarray(e_s), np.asarray(e_d), atol=1e-10 * scale)
 
 
+# slow tier (about 60 s on 2 cores, mostly compiling the landing): the default tier checks the node's
+# accounting through the conservative ring above and its W-method rows through the step and blocks
+@pytest.mark.slow
 def test_landing_with_hook_nodes_closes_the_energy_budget():
     """The capture and the cables' pick-up with hook nodes (W-method, default solver): solved, the
     hooks loaded, and the budget (the ring's and the friction's work on both sides counted) closed
