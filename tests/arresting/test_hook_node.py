@@ -198,6 +198,28 @@ def test_node_blocks_equal_the_dense_jacobian_of_the_cable_forces():
             np.testing.assert_allclose(np.asarray(blocks[zr])[c], rows_z, atol=1e-9 * np.abs(rows_z).max())
 
 
+def test_node_bordered_solve_equals_the_dense_lu():
+    """The W-method's linear solve with hook nodes in the border (the node's ``s_h`` and position,
+    and its columns on the rocket through the ring): ``(beta I - J) x = b`` by the block-tridiagonal
+    bordered solve against the dense LU of the same ``J``, for a random ``b`` at two ``beta``."""
+    scene = _scene()
+    y = _moving_state(scene)
+    flat, unravel = ravel_pytree(y)
+    b = unravel(jnp.asarray(np.random.default_rng(1).normal(size=flat.shape)))
+
+    @jax.jit
+    def both(y, b, beta):
+        lin = scene.stiff_linearisation(0.0, y)
+        return (ravel_pytree(lin.factor(beta).solve(b))[0], ravel_pytree(dense_reference(lin, y).factor(beta).solve(b))[0])
+
+    for beta in (1e3, 1e5):  # [1/s]: 1 / (gamma h) at h of 1 ms and 10 us
+        x_s, x_d = (np.asarray(v) for v in both(y, b, beta))
+        np.testing.assert_allclose(x_s, x_d, atol=1e-10 * np.abs(x_d).max())
+
+
+# slow tier (about 50 s on 2 cores, compiling two W-method steps); the default tier checks the same
+# solve directly (above) and the step's code path with the capsule contact (test_stiff.py)
+@pytest.mark.slow
 def test_node_structured_step_equals_the_dense_reference():
     """One W-method step with hook nodes, the bordered block solve against the dense LU of the same
     ``J`` (the node's rows and its columns on the rocket through the ring included): the same
