@@ -170,59 +170,55 @@ def decompose_node(scene, state, t, cable):
     }  # fmt: skip
 
 
-def write_md_node(data, path):
-    L = ["# The hook node of the most loaded cable of the deviated case", "", *_report.header(data), ""]
-    L += [
-        (
-            "Section IV.A's deviated case, scenario I, ale level, calibrated cable damping, hooks as sliding nodes, "
-            f"integrated to {data['t_end_s']:g} s; cable {data['cable']}. Per instant: the ring's load on the node "
-            "(with the friction's reaction), the friction's force on the node's material coordinate, the two "
-            "elements' tensions at the node and their ratio, the bend at the node, the wrap between the elements "
-            "three beyond it, and the capstan bound exp(mu_s theta) of the larger. A ratio above the bound is marked *."
-        ),
-        "",
-        "| fine elements | t [s] | ring [kN] | friction on s [kN] | leg difference [kN] | legs [MPa] | ratio | capstan | bend, wrap [rad] | span max [MPa] |",
-        "|---|---:|---:|---:|---:|---|---:|---:|---|---:|",
-    ]
+def _write_table(data, path, title, text, head, cells):
+    """The report: ``title``, the run's header, ``text``, then one table row per row of ``data``
+    (``cells(row, mark)``, ``mark`` = "*" where the legs' ratio exceeds the capstan bound)."""
+    L = [f"# {title}", "", *_report.header(data), "", text, "", head, "|" + "|".join(
+        "---" if c.strip() in ("fine elements", "touched", "legs [MPa]", "wrap, kink [rad]", "bend, wrap [rad]") else "---:"
+        for c in head.strip("|").split("|")) + "|"]  # fmt: skip
     for r in data["rows"]:
-        mark = "*" if r["leg_ratio"] > r["capstan"] else ""
-        L.append(
-            f"| {MESH.get(r['variant'], r['variant'])} | {r['t_s']:.3f} | {r['ring_kN']:.0f} | {r['friction_s_kN']:+.1f} | "
-            f"{r['leg_difference_kN']:+.1f} | {r['leg_low_mpa']:.0f} / {r['leg_high_mpa']:.0f} | {r['leg_ratio']:.3f}{mark} | "
-            f"{r['capstan']:.3f} | {r['bend_rad']:.2f}, {r['wrap_rad']:.2f} | {r['span_max_mpa']:.0f} |"
-        )
+        L.append(f"| {MESH.get(r['variant'], r['variant'])} | {r['t_s']:.3f} | " + cells(r, "*" if r["leg_ratio"] > r["capstan"] else "") + " |")
     _report.write_lines(path, L)
+
+
+def write_md_node(data, path):
+    _write_table(
+        data, path, "The hook node of the most loaded cable of the deviated case",
+        "Section IV.A's deviated case, scenario I, ale level, calibrated cable damping, hooks as sliding nodes, "
+        f"integrated to {data['t_end_s']:g} s; cable {data['cable']}. Per instant: the ring's load on the node "
+        "(with the friction's reaction), the friction's force on the node's material coordinate, the two "
+        "elements' tensions at the node and their ratio, the bend at the node, the wrap between the elements "
+        "three beyond it, and the capstan bound exp(mu_s theta) of the larger. A ratio above the bound is marked *.",
+        "| fine elements | t [s] | ring [kN] | friction on s [kN] | leg difference [kN] | legs [MPa] | ratio | capstan | bend, wrap [rad] | span max [MPa] |",
+        lambda r, mark: (
+            f"{r['ring_kN']:.0f} | {r['friction_s_kN']:+.1f} | {r['leg_difference_kN']:+.1f} | "
+            f"{r['leg_low_mpa']:.0f} / {r['leg_high_mpa']:.0f} | {r['leg_ratio']:.3f}{mark} | {r['capstan']:.3f} | "
+            f"{r['bend_rad']:.2f}, {r['wrap_rad']:.2f} | {r['span_max_mpa']:.0f}"
+        ),
+    )  # fmt: skip
 
 
 def write_md(data, path):
-    L = ["# The hook's contact forces on the most loaded cable of the deviated case", "", *_report.header(data), ""]
-    L += [
-        (
-            "Section IV.A's deviated case, scenario I, ale level, calibrated cable damping, integrated to "
-            f"{data['t_end_s']:g} s; cable {data['cable']} (the most loaded). Per instant: the span elements a hook "
-            "touches; the normal force summed over their pairs, and its part along the cable: the pairs' forces "
-            "lumped on the elements' end nodes as the model applies them, projected on each node's tangent (the "
-            "bisector of its two elements) and summed (zero for a continuum, whose contact normal is "
-            "perpendicular to its tangent); the friction, its Coulomb bound mu_s N, and its part along the cable "
-            "the same way; the difference of the two legs' tensions (the leg after the contact minus the one "
-            "before, in the span's direction), their tensions and ratio, the wrap angle, the largest kink at "
-            "one node of the contact, and the capstan bound exp(mu_s theta). A ratio above the bound is "
-            "marked *."
-        ),
-        "",
+    _write_table(
+        data, path, "The hook's contact forces on the most loaded cable of the deviated case",
+        "Section IV.A's deviated case, scenario I, ale level, calibrated cable damping, integrated to "
+        f"{data['t_end_s']:g} s; cable {data['cable']} (the most loaded). Per instant: the span elements a hook "
+        "touches; the normal force summed over their pairs, and its part along the cable: the pairs' forces "
+        "lumped on the elements' end nodes as the model applies them, projected on each node's tangent (the "
+        "bisector of its two elements) and summed (zero for a continuum, whose contact normal is "
+        "perpendicular to its tangent); the friction, its Coulomb bound mu_s N, and its part along the cable "
+        "the same way; the difference of the two legs' tensions (the leg after the contact minus the one "
+        "before, in the span's direction), their tensions and ratio, the wrap angle, the largest kink at "
+        "one node of the contact, and the capstan bound exp(mu_s theta). A ratio above the bound is "
+        "marked *.",
         "| fine elements | t [s] | touched | N [kN] | N along [kN] | friction [kN] (mu_s N) | friction along [kN] | leg difference [kN] | legs [MPa] | ratio | capstan | wrap, kink [rad] | span max [MPa] |",
-        "|---|---:|---|---:|---:|---:|---:|---:|---|---:|---:|---|---:|",
-    ]
-    for r in data["rows"]:
-        mark = "*" if r["leg_ratio"] > r["capstan"] else ""
-        L.append(
-            f"| {MESH.get(r['variant'], r['variant'])} | {r['t_s']:.3f} | {','.join(map(str, r['touched']))} | "
-            f"{r['normal_kN']:.0f} | {r['normal_along_kN']:+.0f} | {r['friction_kN']:.0f} ({r['friction_bound_kN']:.0f}) | "
-            f"{r['friction_along_kN']:+.0f} | {r['leg_difference_kN']:+.0f} | {r['leg_low_mpa']:.0f} / {r['leg_high_mpa']:.0f} | "
-            f"{r['leg_ratio']:.3f}{mark} | "
-            f"{r['capstan']:.3f} | {r['wrap_rad']:.2f}, {r['kink_rad']:.2f} | {r['span_max_mpa']:.0f} |"
-        )
-    _report.write_lines(path, L)
+        lambda r, mark: (
+            f"{','.join(map(str, r['touched']))} | {r['normal_kN']:.0f} | {r['normal_along_kN']:+.0f} | "
+            f"{r['friction_kN']:.0f} ({r['friction_bound_kN']:.0f}) | {r['friction_along_kN']:+.0f} | "
+            f"{r['leg_difference_kN']:+.0f} | {r['leg_low_mpa']:.0f} / {r['leg_high_mpa']:.0f} | {r['leg_ratio']:.3f}{mark} | "
+            f"{r['capstan']:.3f} | {r['wrap_rad']:.2f}, {r['kink_rad']:.2f} | {r['span_max_mpa']:.0f}"
+        ),
+    )  # fmt: skip
 
 
 def main():

@@ -28,7 +28,6 @@ from jaxcable.arresting.stiff import dense_reference
 from jaxcable.components.ale import AleCable
 from jaxcable.components.contact import ContactLaw
 from jaxcable.core.config import enable_x64
-from jaxcable.core.rosenbrock import RosenbrockW
 
 enable_x64()
 
@@ -215,34 +214,6 @@ def test_node_bordered_solve_equals_the_dense_lu():
     for beta in (1e3, 1e5):  # [1/s]: 1 / (gamma h) at h of 1 ms and 10 us
         x_s, x_d = (np.asarray(v) for v in both(y, b, beta))
         np.testing.assert_allclose(x_s, x_d, atol=1e-10 * np.abs(x_d).max())
-
-
-# slow tier (about 50 s on 2 cores, compiling two W-method steps); the default tier checks the same
-# solve directly (above) and the step's code path with the capsule contact (test_stiff.py)
-@pytest.mark.slow
-def test_node_structured_step_equals_the_dense_reference():
-    """One W-method step with hook nodes, the bordered block solve against the dense LU of the same
-    ``J`` (the node's rows and its columns on the rocket through the ring included): the same
-    state and error estimate to round-off."""
-    scene = _scene()
-    y = _moving_state(scene)
-    term = diffrax.ODETerm(lambda t, y, args: scene.vector_field(t, y))
-    structured = RosenbrockW(linearise=scene.stiff_linearisation)
-    dense = RosenbrockW(linearise=lambda t, y: dense_reference(scene.stiff_linearisation(t, y), y))
-
-    @jax.jit
-    def step(y):
-        out = []
-        for solver in (structured, dense):
-            state = solver.init(term, 0.0, 1e-4, y, None)
-            y1, err, *_ = solver.step(term, 0.0, 1e-4, y, None, state, False)
-            out.append((ravel_pytree(y1)[0], ravel_pytree(err)[0]))
-        return out
-
-    (y_s, e_s), (y_d, e_d) = step(y)
-    scale = np.abs(np.asarray(y_d)).max()
-    np.testing.assert_allclose(np.asarray(y_s), np.asarray(y_d), atol=1e-10 * scale)
-    np.testing.assert_allclose(np.asarray(e_s), np.asarray(e_d), atol=1e-10 * scale)
 
 
 # slow tier (about 60 s on 2 cores, mostly compiling the landing): the default tier checks the node's

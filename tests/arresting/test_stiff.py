@@ -99,14 +99,20 @@ def test_blocks_equal_the_dense_jacobian_of_the_cable_forces(mass_scale, rtol):
             np.testing.assert_allclose(np.asarray(blocks[zr])[c], rows_z, atol=rtol * np.abs(rows_z).max())
 
 
-# h = 2e-3 s in the slow tier (each case 80-120 s on 2 cores; the same code path at another step)
-@pytest.mark.parametrize("h", [1e-4, pytest.param(2e-3, marks=pytest.mark.slow)])
-def test_structured_step_equals_the_dense_reference(h):
+# h = 2e-3 s in the slow tier (each case 80-120 s on 2 cores; the same code path at another step);
+# the hooks as sliding nodes in the slow tier too (50 s; the default tier checks their bordered solve
+# against the dense LU, tests/arresting/test_hook_node.py)
+@pytest.mark.parametrize(
+    "h, hook_contact",
+    [(1e-4, "capsule"), pytest.param(2e-3, "capsule", marks=pytest.mark.slow), pytest.param(1e-4, "node", marks=pytest.mark.slow)],
+)
+def test_structured_step_equals_the_dense_reference(h, hook_contact):
     """One step of the same method with the same ``J``, solved densely (LU of the assembled
     ``beta I - J``) and with the block-tridiagonal bordered solve: the same new state and the same
     error estimate (hence the same step-size decisions) to round-off; at a step where the stiff
-    modes are far beyond ``1 / h`` (2 ms) as at one that resolves them (0.1 ms)."""
-    scene = _scene(beta=1e-3)
+    modes are far beyond ``1 / h`` (2 ms) as at one that resolves them (0.1 ms); with the hooks as
+    sliding nodes (their positions and material coordinates in the border)."""
+    scene = _scene(beta=1e-3, hook_contact=hook_contact)
     y = _moving_state(scene)
     term = diffrax.ODETerm(lambda t, y, args: scene.vector_field(t, y))
     structured = RosenbrockW(linearise=scene.stiff_linearisation)
