@@ -464,6 +464,11 @@ def _small_solve(A, b):
     return M[:, n]
 
 
+def _swap(x):
+    """Swap the last two axes (a batch of matrices' transposes)."""
+    return jnp.swapaxes(x, -1, -2)
+
+
 def _element_terms(r1, r2, s1, s2):
     length = s2 - s1
     tangent = (r2 - r1) / length
@@ -718,9 +723,8 @@ class CableSubsystem(eqx.Module):
             zero_blk = jnp.zeros((1, 4, 4), J.dtype)
             U_col = jnp.concatenate([zero_blk, U[:-1]])  # K_x[m - 1, m]
             L_col = jnp.concatenate([L[1:], zero_blk])  # K_x[m + 1, m]
-            BT = lambda X: jnp.swapaxes(X, -1, -2)  # noqa: E731
-            dG = _mm(BT(B_prev), U_col) + _mm(BT(B), D) + _mm(BT(B_next), L_col)  # (N, n_slow, 4)
-            return tri, dF[internal, :3], jnp.einsum("nis,nit->st", B, dF), BT(dG[internal, :, :3])
+            dG = _mm(_swap(B_prev), U_col) + _mm(_swap(B), D) + _mm(_swap(B_next), L_col)  # (N, n_slow, 4)
+            return tri, dF[internal, :3], jnp.einsum("nis,nit->st", B, dF), _swap(dG[internal, :, :3])
 
         (K_rr, K_rz, K_zz, K_zr), (C_rr, C_rz, C_zz, C_zr) = one(J_z), one(J_zdot)
         # the brake on the block coordinate (generalised_forces' Q_u)
