@@ -53,9 +53,11 @@ Glossary
 --------
 ===================  ===========================================================================
 ``boundary_points``  (nb,3) boundary node positions at ``u = 0`` [m]
-``kinds``            static tuple, per boundary node: ``"end"``, ``"pulley"`` (passive: ``s`` free) or
+``kinds``            static tuple, per boundary node: ``"end"``, ``"pulley"`` (passive: ``s`` free),
                      ``"active"`` (the motor-driven pulley of eq 47: ``s`` is a coordinate whose rate
-                     ``s_dot = v_p`` is prescribed; its acceleration is an input)
+                     ``s_dot = v_p`` is prescribed; its acceleration is an input) or ``"hook"`` (a
+                     hook as a sliding node: ``s`` free and its position a coordinate, ``CableCoords.h``;
+                     it joins the slow coordinates ``(s, h, u)`` of the mass solve's border)
 ``moving``           static tuple of bool: boundary node rides the moving pulley block
 ``elements``         static tuple, ALE elements per span (nb-1 spans)
 ``fractions``        tuple of (n_j-1,) arrays: internal-node material fractions per span, in (0,1)
