@@ -360,9 +360,7 @@ class AleCables(eqx.Module):
         // 2`` elements in the first, the rest in the second, each with half the fine elements next
         to the hook node (they follow the hook however far the cable slides).
         """
-        if hook_contact not in ("capsule", "node"):
-            raise ValueError(f"hook_contact must be 'capsule' or 'node', got {hook_contact!r}")
-        node = hook_contact == "node"
+        node = hook_contact == "node"  # any other value than "capsule" is refused by __check_init__
         ends, _ = span_endpoints(layout, frame_centre_xy)
         throats, _ = _engaged_throats(hooks0, throat_w)
         H, D = layout.tower_height_m, layout.block_strand_m
@@ -474,10 +472,10 @@ class AleCables(eqx.Module):
         (and in the slow coordinates), its position's three slow slots, and the number of slow
         coordinates."""
         lo, hi = self.span_slice
-        kinds = self.subsystems.route.kinds
-        pulleys = [i for i, k in enumerate(kinds) if k in ("pulley", "active", "hook")]
-        n_p = len(pulleys)
-        return lo + (hi - lo) // 2, pulleys.index(kinds.index("hook")), np.arange(n_p, n_p + 3), n_p + 4
+        route = self.subsystems.route  # stacked: only its static kinds are read here
+        n_p = len(route.pulley_ids)
+        # the node after the first sub-span's n_span // 2 elements (:meth:`build`)
+        return lo + (hi - lo) // 2, route.pulley_ids.index(route.hook_ids[0]), np.arange(n_p, n_p + 3), n_p + 4
 
     def _node_contact(self, kin, hooks: HookPoints):
         """The hook as a sliding node: each cable's hook node ``r_h`` (a coordinate, its material
@@ -559,6 +557,17 @@ class AleCables(eqx.Module):
         return CableCoords(
             r=jnp.zeros_like(q.r), s=Q_slow[:n_p], u=Q_slow[-1], h=Q_slow[n_p : n_p + 3].reshape(1, 3)
         )
+
+    def _hook_loads(self, kin, hooks: HookPoints):
+        """The hooks' loads on the cables by the hook model: ``(span_forces (4, n_span, 2, 3) on the
+        span elements' ends, Q_node (4, n_slow) on the slow coordinates or None, f_hook, normal,
+        power, touching)``, ``touching`` None with the node (:meth:`_contact`, :meth:`_node_contact`)."""
+        if self.hook_contact == "node":
+            Q_node, f_hook, normal, power = self._node_contact(kin, hooks)
+            lo, hi = self.span_slice
+            return jnp.zeros((4, hi - lo, 2, 3), Q_node.dtype), Q_node, f_hook, normal, power, None
+        span_forces, f_hook, normal, power, touching = self._contact(kin, hooks)
+        return span_forces, None, f_hook, normal, power, touching
 
     def _span_ends(self, kin):
         """The arresting span's element ends from the stacked ``kin``: positions ``r1, r2`` and
@@ -663,13 +672,7 @@ class AleCables(eqx.Module):
         """Cable accelerations and the forces on the hooks at time ``t`` [s] (used by the wind only)."""
         kin = self.kinematics(state)
         lo, hi = self.span_slice
-        node = self.hook_contact == "node"
-        if node:
-            Q_node, f_hook, normal, power = self._node_contact(kin, hooks)
-            span_forces = jnp.zeros((4, hi - lo, 2, 3), Q_node.dtype)
-        else:
-            span_forces, f_hook, normal, power, touching = self._contact(kin, hooks)
-            Q_node = jnp.zeros((4, 1), span_forces.dtype)
+        span_forces, Q_node, f_hook, normal, power, touching = self._hook_loads(kin, hooks)
 
         def one(sub, q, qdot, kin, span_forces, Q_node):
             n_el = kin.length.shape[0]
@@ -679,7 +682,7 @@ class AleCables(eqx.Module):
             else:
                 drag, aero_power = self._span_drag(kin, t)
                 element_forces = element_forces + drag
-            external = self._node_external(Q_node, q) if node else None
+            external = None if Q_node is None else self._node_external(Q_node, q)
             qdd = sub.accelerations(q, qdot, external=external, element_forces=element_forces, kin=kin)
             diss = sub.dissipated_power(q, qdot, kin)
             tension = jnp.max(sub.element_tensions(kin))
@@ -694,7 +697,7 @@ class AleCables(eqx.Module):
             contact_power_W=power,
             aero_power_W=jnp.sum(aero_power),
         )
-        if not node:
+        if touching is not None:
             aux["contact_pairs_touching"] = touching
         return f_hook, dstate, aux
 
@@ -705,12 +708,7 @@ class AleCables(eqx.Module):
         the positions and velocities of nodes ``j - 1, j, j + 1`` and on the slow coordinates."""
         kin = self.kinematics(state)
         lo, hi = self.span_slice
-        if self.hook_contact == "node":
-            Q_node = self._node_contact(kin, hooks)[0]
-            span_forces = jnp.zeros((4, hi - lo, 2, 3), Q_node.dtype)
-        else:
-            span_forces = self._contact(kin, hooks)[0]
-            Q_node = None
+        span_forces, Q_node = self._hook_loads(kin, hooks)[:2]
 
         def one(sub, q, qdot, kin, span_forces):
             n_el = kin.length.shape[0]

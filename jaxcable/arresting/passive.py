@@ -674,6 +674,15 @@ def scene_contact_law(v_s_m_s: float = DEFAULT_CONTACT_SLIP_M_S):
     return ContactLaw(v_s=v_s_m_s, v_d=2.5 * v_s_m_s)
 
 
+def check_hook_contact(hook_contact: str, fidelity: str):
+    """ValueError unless ``hook_contact`` is ``"capsule"`` or ``"node"``, and ``"node"`` only at a
+    level with ALE cables (``ale``, ``full``): the case functions of the sweeps check this."""
+    if hook_contact not in ("capsule", "node"):
+        raise ValueError(f"hook_contact must be 'capsule' or 'node', got {hook_contact!r}")
+    if hook_contact == "node" and fidelity == "rigid":
+        raise ValueError("hook_contact='node' needs fidelity 'ale' or 'full' (the rigid level's cables have no nodes)")
+
+
 def passive_landing_scene(
     fidelity: str = "full",
     capture: CaptureState | None = None,

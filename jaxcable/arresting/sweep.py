@@ -55,6 +55,7 @@ from jaxcable.arresting.passive import (
     G_CRITERIA,
     SAVE_SPACING_S,
     LandingCriteria,
+    check_hook_contact,
     landing_outputs,
     passive_landing_scene,
 )
@@ -208,10 +209,7 @@ class PassiveCaseFunction(AbstractLandingCaseFunction):
 
     def __check_init__(self):
         check_choice("fidelity", self.fidelity, SWEEP_FIDELITIES)
-        if self.hook_contact not in ("capsule", "node"):
-            raise ValueError(f"hook_contact must be 'capsule' or 'node', got {self.hook_contact!r}")
-        if self.hook_contact == "node" and self.fidelity == "rigid":
-            raise ValueError("hook_contact='node' needs fidelity 'ale' or 'full' (the rigid level's cables have no nodes)")
+        check_hook_contact(self.hook_contact, self.fidelity)
         check_positive("cable_damping_s", self.cable_damping_s, allow_zero=True)
         check_positive("t_end_s", self.t_end_s)
         check_positive("rtol", self.rtol)
@@ -238,7 +236,7 @@ class PassiveCaseFunction(AbstractLandingCaseFunction):
         return passive_landing_scene(
             self.fidelity, capture, self.layout, self.buffer, t_end_s=self.t_end_s,
             cable_damping_s=self.cable_damping_s, **air,
-            **({"hook_contact": self.hook_contact} if self.host_build else {}),
+            hook_contact=self.hook_contact,
         )  # fmt: skip
 
     def _simulate(self, scene):

@@ -100,6 +100,7 @@ from jaxcable.arresting.passive import (
     DEFAULT_CABLE_DAMPING_S,
     LandingCriteria,
     check_cable_damping,
+    check_hook_contact,
     check_t_end,
     landing_outputs,
     passive_landing_scene,
@@ -603,10 +604,7 @@ class TwoPhaseCaseFunction(AbstractLandingCaseFunction):
     def __check_init__(self):
         check_positive("cable_damping_s", self.cable_damping_s, allow_zero=True)
         check_choice("fidelity", self.fidelity, ("rigid", "ale", "full"))
-        if self.hook_contact not in ("capsule", "node"):
-            raise ValueError(f"hook_contact must be 'capsule' or 'node', got {self.hook_contact!r}")
-        if self.hook_contact == "node" and self.fidelity == "rigid":
-            raise ValueError("hook_contact='node' needs fidelity 'ale' or 'full' (the rigid level's cables have no nodes)")
+        check_hook_contact(self.hook_contact, self.fidelity)
 
     @property
     def host_build(self) -> bool:
