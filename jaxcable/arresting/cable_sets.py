@@ -471,11 +471,10 @@ class AleCables(eqx.Module):
         node's index among a cable's nodes, its material coordinate's slot in ``CableCoords.s``
         (and in the slow coordinates), its position's three slow slots, and the number of slow
         coordinates."""
-        lo, hi = self.span_slice
-        route = self.subsystems.route  # stacked: only its static kinds are read here
-        n_p = len(route.pulley_ids)
-        # the node after the first sub-span's n_span // 2 elements (:meth:`build`)
-        return lo + (hi - lo) // 2, route.pulley_ids.index(route.hook_ids[0]), np.arange(n_p, n_p + 3), n_p + 4
+        route = self.subsystems.route  # stacked (a leading cable axis): kinds and fraction counts read
+        n_p, b = len(route.pulley_ids), route.hook_ids[0]
+        node = sum(int(np.shape(f)[-1]) + 1 for f in route.fractions[:b])  # elements before the hook node
+        return node, route.pulley_ids.index(b), np.arange(n_p, n_p + 3), n_p + 4
 
     def _node_contact(self, kin, hooks: HookPoints):
         """The hook as a sliding node: each cable's hook node ``r_h`` (a coordinate, its material

@@ -765,6 +765,11 @@ def passive_landing_scene(
         cable_model = "massless" if fidelity == "rigid" else "ale"
     check_choice("cable_model", cable_model, ("massless", "ale"))
     check_choice("hook_contact", hook_contact, ("capsule", "node"))
+    if hook_contact == "node" and cable_model == "massless":
+        raise ValueError(
+            f"hook_contact='node' needs the ALE cables (cable_model 'ale'), got cable_model={cable_model!r} "
+            f"at fidelity {fidelity!r}: the massless cables have no nodes"
+        )
     check_instance("capture", capture, CaptureState, allow_none=True)
     check_instance("layout", layout, ArrestingLayout, allow_none=True)
     check_instance("buffer", buffer, BufferDevice, allow_none=True)

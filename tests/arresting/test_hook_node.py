@@ -245,3 +245,25 @@ def test_sweeps_carry_the_hook_model_in_their_identity():
             factory("rigid", hook_contact="node")
         with pytest.raises(ValueError, match="hook_contact must be 'capsule' or 'node'"):
             factory("full", hook_contact="ring")
+
+
+@pytest.mark.parametrize("n_span", [16, 17])
+def test_the_node_slot_is_the_hook_node_of_the_route(n_span):
+    """The index the contact reads the hook node at is the route's hook node (even and odd span
+    meshes), and its material slot holds the hook's material coordinate."""
+    cables = passive_landing_scene("ale", hook_contact="node", n_span_elements=n_span, n_fine=8).cables
+    node, s_slot, _, _ = cables._node_slots()
+    sub0 = jax.tree_util.tree_map(lambda x: x[0], cables.subsystems)
+    q0 = jax.tree_util.tree_map(lambda x: x[0], cables.q0)
+    r, _ = sub0.route.nodes(q0)
+    np.testing.assert_array_equal(np.asarray(r[node]), np.asarray(q0.h[0]))
+    b = sub0.route.hook_ids[0]
+    assert float(q0.s[s_slot]) == float(sub0.route.s_boundary0[b])
+
+
+def test_scene_refuses_the_hook_node_on_massless_cables():
+    """The massless cables have no nodes: ``hook_contact='node'`` with them is an error naming both,
+    not silently the capsule contact."""
+    for fidelity, model in (("rigid", None), ("full", "massless")):
+        with pytest.raises(ValueError, match="hook_contact='node' needs the ALE cables"):
+            passive_landing_scene(fidelity, cable_model=model, hook_contact="node")
