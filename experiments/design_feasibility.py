@@ -18,6 +18,12 @@ Writes ``design_feasibility.{json,md,png}``. Usage:
     python experiments/design_feasibility.py --quick             # 2 x 2, ale, 0.3 s; experiments/out/
     python experiments/design_feasibility.py --levels full --m-w 900 950 --f-f 3.2e5
     python experiments/design_feasibility.py --levels full --span-elements 48 --fine-elements 32 --tag _fine_x2
+    python experiments/design_feasibility.py --batch-case 7 --m-w 300 600 920 --f-f 2.6e5 2.9e5 3.2e5 --tag _case7
+
+``--batch-case J`` maps capture J of the design batch (``--batch-n`` Table 8 captures of scenario I,
+seed 0, still air: the captures ``jaxcable design`` and ``experiments/design_full_check.py`` use)
+instead of the design case: a buffer has to land every capture of a batch, so the captures that
+want different buffers bound what any design can reach.
 """
 
 from __future__ import annotations
@@ -40,9 +46,23 @@ from jaxcable.core.validation import check_positive
 STEM = "design_feasibility"
 
 
-def one_cell(level, m_w, f_f, t_end, **mesh):
+def batch_capture(j, n):
+    """Capture ``j`` of the design batch: ``n`` Table 8 captures of scenario I, seed 0."""
+    import jax
+
+    from jaxcable.arresting.uncertainty import captures_from_samples, halton_samples
+
+    if not 0 <= j < n:
+        raise ValueError(f"--batch-case must be in [0, {n}), got {j}")
+    captures = captures_from_samples(halton_samples(n, scenario="I", phase="passive", seed=0))
+    return jax.tree_util.tree_map(lambda v: v[j], captures)
+
+
+def one_cell(level, m_w, f_f, t_end, capture=None, profile=None, **mesh):
     t0 = time.perf_counter()
-    run = run_landing(level, buffer=BufferDevice(counterweight_mass_kg=m_w, brake_force_N=f_f), t_end_s=t_end, **mesh)
+    shape = {} if profile is None else {"brake_profile": np.asarray(profile, float)}
+    buffer = BufferDevice(counterweight_mass_kg=m_w, brake_force_N=f_f, **shape)
+    run = run_landing(level, capture, buffer=buffer, t_end_s=t_end, **mesh)
     o = run.outputs
     keys = ("z_max_m", "a_max_g", "sigma_max_mpa", "stopped", "solve_ok", "criteria_met", "energy_budget_error")
     row = {k: (bool(o[k]) if isinstance(o[k], (bool, np.bool_)) else float(o[k])) for k in keys}
@@ -51,13 +71,21 @@ def one_cell(level, m_w, f_f, t_end, **mesh):
 
 def write_md(data, path, stem=STEM):
     c = data["criteria"]
-    lines = ["# Buffers on the design case: which meet every criterion", "", *_report.header(data), ""]
+    case = data.get("case", "design case")
+    lines = [f"# Buffers on the {case}: which meet every criterion", "", *_report.header(data), ""]
+    where = "Design case (Table 1: centre, vertical, 20 m/s)" if case == "design case" else (
+        f"The design batch's {case} (Table 8, scenario I, seed 0; capture at x = {data['capture_xy_m'][0]:.1f} m, "
+        f"y = {data['capture_xy_m'][1]:.1f} m, still air)")
     lines += [
         (
-            f"Design case (Table 1: centre, vertical, 20 m/s), {data['t_end_s']:g} s, "
+            f"{where}, {data['t_end_s']:g} s, "
             + (f"{data['mesh'][0]} span elements ({data['mesh'][1]} fine) at the ale and full levels, "
                if data.get("mesh", [N_SPAN, N_FINE]) != [N_SPAN, N_FINE] else "each level's default mesh, ")
-            + "each level's solver and calibrated cable damping. "
+            + "each level's solver and calibrated cable damping"
+            + (", the hook as a sliding node" if data.get("hook_contact", "capsule") == "node" else "")
+            + (f", a shaped brake (factors {', '.join(f'{f:g}' for f in data['brake_profile'])} of F_f over the stroke)"
+               if data.get("brake_profile") else "")
+            + ". "
             f"Criteria: z_max < {c['z_max_m']:g} m, a_max (CFC 60) < "
             f"{c['a_max_g']:g} g, sigma_max < {c['sigma_max_mpa']:g} MPa, stopped. A cell meeting all is in bold."
         ),
@@ -103,7 +131,7 @@ def plot(data, path):
                 ax.plot(r["m_w_kg"], r["a_max_g"], "o", color=colour, mfc=colour if ok else "white", ms=6)
         ax.axhline(c["a_max_g"], color="k", ls="--", lw=0.8)
         ax.set_xlabel("counterweight m_w [kg]")
-        ax.set_title(f"design case, {level} level")
+        ax.set_title(f"{data.get('case', 'design case')}, {level} level")
         ax.grid(alpha=0.3)
     axes[0, 0].set_ylabel("a_max (CFC 60) [g]")
     axes[0, -1].legend(fontsize=8, title="filled: z_max, sigma_max met", title_fontsize=8)
@@ -124,6 +152,12 @@ def main():
     p.add_argument("--tag", default="", help="suffix of the results' file names (e.g. _fine)")
     p.add_argument("--span-elements", type=int, default=N_SPAN, help=f"elements per arresting span (default {N_SPAN})")
     p.add_argument("--fine-elements", type=int, default=N_FINE, help=f"of them in the fine region under the hook (default {N_FINE})")
+    p.add_argument("--batch-case", type=int, default=None, help="map capture J of the design batch instead of the design case")
+    p.add_argument("--batch-n", type=int, default=16, help="captures in the design batch (default 16)")
+    p.add_argument("--brake-profile", nargs="+", type=float, default=None,
+                   help="a shaped brake: factors of F_f at equally spaced knots over the stroke (BufferDevice.brake_profile)")
+    p.add_argument("--hook-contact", default="capsule", choices=["capsule", "node"],
+                   help="hook-cable contact model at the ale and full levels (default capsule)")
     args = p.parse_args()
     stem = STEM + args.tag
     if args.replot:
@@ -141,14 +175,22 @@ def main():
     check_positive("--fine-elements", args.fine_elements)
     mesh = {} if (args.span_elements, args.fine_elements) == (N_SPAN, N_FINE) else {
         "n_span_elements": args.span_elements, "n_fine": args.fine_elements}
+    if args.hook_contact != "capsule":
+        mesh["hook_contact"] = args.hook_contact
     data = _report.start(
         t_end_s=args.t_end, levels=args.levels, rows=[], mesh=[args.span_elements, args.fine_elements],
         criteria={"z_max_m": float(crit.z_max_m), "a_max_g": float(crit.a_max_g), "sigma_max_mpa": float(crit.sigma_max_mpa)},
     )  # fmt: skip
+    capture = None
+    if args.batch_case is not None:
+        capture = batch_capture(args.batch_case, args.batch_n)
+        data.update(case=f"batch case {args.batch_case} of {args.batch_n}",
+                    capture_xy_m=[float(capture.x_m), float(capture.y_m)])  # fmt: skip
+    data.update(brake_profile=args.brake_profile, hook_contact=args.hook_contact)
     for level in args.levels:
         for m_w in args.m_w:
             for f_f in args.f_f:
-                row = one_cell(level, m_w, f_f, args.t_end, **(mesh if level != "rigid" else {}))
+                row = one_cell(level, m_w, f_f, args.t_end, capture, args.brake_profile, **(mesh if level != "rigid" else {}))
                 data["rows"].append(row)
                 print(row, flush=True)
                 _report.save(data, out, stem)
