@@ -247,11 +247,10 @@ def test_sweeps_carry_the_hook_model_in_their_identity():
             factory("full", hook_contact="ring")
 
 
-@pytest.mark.parametrize("n_span", [16, 17])
-def test_the_node_slot_is_the_hook_node_of_the_route(n_span):
-    """The index the contact reads the hook node at is the route's hook node (even and odd span
-    meshes), and its material slot holds the hook's material coordinate."""
-    cables = passive_landing_scene("ale", hook_contact="node", n_span_elements=n_span, n_fine=8).cables
+def test_the_node_slot_is_the_hook_node_of_the_route():
+    """The index the contact reads the hook node at is the route's hook node (an odd span mesh: the
+    two sub-spans differ by an element), and its material slot holds the hook's material coordinate."""
+    cables = passive_landing_scene("ale", hook_contact="node", n_span_elements=17, n_fine=8).cables
     node, s_slot, _, _ = cables._node_slots()
     sub0 = jax.tree_util.tree_map(lambda x: x[0], cables.subsystems)
     q0 = jax.tree_util.tree_map(lambda x: x[0], cables.q0)
