@@ -58,11 +58,10 @@ def batch_capture(j, n):
     return jax.tree_util.tree_map(lambda v: v[j], captures)
 
 
-def one_cell(level, m_w, f_f, t_end, capture=None, profile=None, **mesh):
+def one_cell(level, m_w, f_f, t_end, capture=None, profile=None, **scene_options):
     t0 = time.perf_counter()
-    shape = {} if profile is None else {"brake_profile": np.asarray(profile, float)}
-    buffer = BufferDevice(counterweight_mass_kg=m_w, brake_force_N=f_f, **shape)
-    run = run_landing(level, capture, buffer=buffer, t_end_s=t_end, **mesh)
+    buffer = BufferDevice(counterweight_mass_kg=m_w, brake_force_N=f_f, brake_profile=profile)
+    run = run_landing(level, capture, buffer=buffer, t_end_s=t_end, **scene_options)
     o = run.outputs
     keys = ("z_max_m", "a_max_g", "sigma_max_mpa", "stopped", "solve_ok", "criteria_met", "energy_budget_error")
     row = {k: (bool(o[k]) if isinstance(o[k], (bool, np.bool_)) else float(o[k])) for k in keys}
@@ -173,10 +172,10 @@ def main():
     crit = LandingCriteria()
     check_positive("--span-elements", args.span_elements)
     check_positive("--fine-elements", args.fine_elements)
-    mesh = {} if (args.span_elements, args.fine_elements) == (N_SPAN, N_FINE) else {
+    scene_options = {} if (args.span_elements, args.fine_elements) == (N_SPAN, N_FINE) else {
         "n_span_elements": args.span_elements, "n_fine": args.fine_elements}
     if args.hook_contact != "capsule":
-        mesh["hook_contact"] = args.hook_contact
+        scene_options["hook_contact"] = args.hook_contact
     data = _report.start(
         t_end_s=args.t_end, levels=args.levels, rows=[], mesh=[args.span_elements, args.fine_elements],
         criteria={"z_max_m": float(crit.z_max_m), "a_max_g": float(crit.a_max_g), "sigma_max_mpa": float(crit.sigma_max_mpa)},
@@ -190,7 +189,7 @@ def main():
     for level in args.levels:
         for m_w in args.m_w:
             for f_f in args.f_f:
-                row = one_cell(level, m_w, f_f, args.t_end, capture, args.brake_profile, **(mesh if level != "rigid" else {}))
+                row = one_cell(level, m_w, f_f, args.t_end, capture, args.brake_profile, **(scene_options if level != "rigid" else {}))
                 data["rows"].append(row)
                 print(row, flush=True)
                 _report.save(data, out, stem)
