@@ -14,12 +14,18 @@ bounds by the design module's scaled logistic (``design_space``). Every evaluati
 found derivative-free search as fast on 6 variables). The best design is then landed on the mesh refined 1.5x and 2x (48 / 64 span elements,
 32 fine), since the default mesh is ~3% low on a_max for this buffer family.
 
-Writes ``design_shaped_full.{json,md}`` after every landing; ``--refine-only`` refines the best
+``--batch-case J`` lands capture J of the design batch (``design_feasibility.py``'s: 16 Table 8
+captures of scenario I, seed 0) beside the design case in every evaluation and scores the worst of
+the two: a buffer has to land every capture, and the design batch's case 7 (15.1 m off centre)
+wants a lighter counterweight and a weaker brake than the centred design case.
+
+Writes ``design_shaped_full{TAG}.{json,md}`` after every evaluation; ``--refine-only`` refines the best
 design of a saved (or stopped) search, keeping the meshes already landed. Usage:
 
     python experiments/design_shaped_full.py                  # full level, 4 knots, 90 landings (~40 min idle)
     python experiments/design_shaped_full.py --quick          # ale level, 0.3 s, 8 landings; experiments/out/
     python experiments/design_shaped_full.py --knots 6 --evaluations 150
+    python experiments/design_shaped_full.py --batch-case 7 --start 600,3.0e5 --tag _pair7
 """
 
 from __future__ import annotations
@@ -30,6 +36,7 @@ import time
 
 import _report
 import numpy as np
+from design_feasibility import batch_capture
 from scipy.optimize import minimize
 
 from jaxcable.arresting.buffer import BufferDevice
@@ -56,11 +63,12 @@ def shaped_space(knots):
     return design_space(("m_w", "F_f", *profile_names(knots)), bounds)
 
 
-def land(level, x, t_end, criteria, **mesh):
-    """One landing of design ``x = (m_w, F_f, factors...)``; its criteria and the worst normalised."""
+def land(level, x, t_end, criteria, capture=None, **mesh):
+    """One landing of design ``x = (m_w, F_f, factors...)`` (the design case, or ``capture``); its
+    criteria and the worst normalised."""
     buffer = BufferDevice(counterweight_mass_kg=float(x[0]), brake_force_N=float(x[1]), brake_profile=np.asarray(x[2:]))
     t0 = time.perf_counter()
-    o = run_landing(level, buffer=buffer, t_end_s=t_end, **mesh).outputs
+    o = run_landing(level, capture, buffer=buffer, t_end_s=t_end, **mesh).outputs
     row = {k: float(o[k]) for k in ("z_max_m", "a_max_g", "sigma_max_mpa", "energy_budget_error")}
     row.update(stopped=bool(o["stopped"]), solve_ok=bool(o["solve_ok"]), criteria_met=bool(o["criteria_met"]))
     worst = max(row["z_max_m"] / float(criteria.z_max_m), row["a_max_g"] / float(criteria.a_max_g),
@@ -70,17 +78,39 @@ def land(level, x, t_end, criteria, **mesh):
     return row
 
 
+def land_cases(level, x, t_end, criteria, captures, **mesh):
+    """Design ``x`` landed on the design case and on each of ``captures`` (name -> capture); the
+    design case's row with the others under ``"cases"`` and ``"worst"`` the largest over all."""
+    row = land(level, x, t_end, criteria, **mesh)
+    if captures:
+        row["cases"] = {name: land(level, x, t_end, criteria, capture, **mesh) for name, capture in captures.items()}
+        row["design_case_worst"] = row["worst"]
+        row["worst"] = max([row["worst"]] + [r["worst"] for r in row["cases"].values()])
+        row["wall_s"] += sum(r["wall_s"] for r in row["cases"].values())
+    return row
+
+
 def _design(r):
     return f"{r['m_w_kg']:.0f} kg, {r['F_f_N']:.4g} N, factors " + " ".join(f"{f:.2f}" for f in r["factors"])
 
 
 def _criteria(r):
-    return f"{r['z_max_m']:.3f} / {r['a_max_g']:.3f} / {r['sigma_max_mpa']:.0f}"
+    text = f"{r['z_max_m']:.3f} / {r['a_max_g']:.3f} / {r['sigma_max_mpa']:.0f}"
+    for name, c in r.get("cases", {}).items():
+        text += f"; {name}: {c['z_max_m']:.3f} / {c['a_max_g']:.3f} / {c['sigma_max_mpa']:.0f}"
+    return text
 
 
 def write_md(data, path):
     rows = data["search"]
-    lines = ["# A shaped brake on the design case at the full level", "", *_report.header(data), ""]
+    cases = data.get("batch_cases") or []
+    title = "the design case" + "".join(f" and the design batch's case {j}" for j in cases)
+    lines = [f"# A shaped brake on {title} at the full level", "", *_report.header(data), ""]
+    if cases:
+        lines += [(f"Each evaluation lands the design case and capture(s) {', '.join(map(str, cases))} of the design "
+                   f"batch ({data['batch_n']} Table 8 captures of scenario I, seed 0, as `design_feasibility.py "
+                   "--batch-case` maps them); its score is the worst over them, the criteria are listed design case "
+                   "first."), ""]  # fmt: skip
     lines += [
         (f"Design case (Table 1: centre, vertical, 20 m/s), level `{data['level']}`, {data['t_end_s']:g} s, "
         f"the level's default mesh ({N_SPAN} span elements, {N_FINE} fine), solver and calibrated cable "
@@ -96,8 +126,10 @@ def write_md(data, path):
     for i, r in enumerate(rows):
         if i == 0 or r["worst"] < best:
             best = r["worst"]
-            lines.append(f"| {i} | {r['worst']:.4f} | {_criteria(r)} | {r['stopped']} | {_design(r)} |")
-    lines += ["", f"{len(rows)} landings; the rows above are the start and each improvement.", ""]
+            stopped = r["stopped"] and all(c["stopped"] for c in r.get("cases", {}).values())
+            lines.append(f"| {i} | {r['worst']:.4f} | {_criteria(r)} | {stopped} | {_design(r)} |")
+    per = f" of {1 + len(cases)} landings each" if cases else ""
+    lines += ["", f"{len(rows)} evaluations{per}; the rows above are the start and each improvement.", ""]
     if data.get("search_date"):
         start, end = data["search_load"]
         when = f"{data['search_date']} (load average at its start {start}, " + (
@@ -108,7 +140,8 @@ def write_md(data, path):
                   "| mesh (span / fine elements) | worst | z_max [m] / a_max [g] / sigma_max [MPa] | stopped |",
                   "|---|---:|---|---|"]  # fmt: skip
         for r in data["refined"]:
-            lines.append(f"| {r['mesh'][0]} / {r['mesh'][1]} | {r['worst']:.4f} | {_criteria(r)} | {r['stopped']} |")
+            stopped = r["stopped"] and all(c["stopped"] for c in r.get("cases", {}).values())
+            lines.append(f"| {r['mesh'][0]} / {r['mesh'][1]} | {r['worst']:.4f} | {_criteria(r)} | {stopped} |")
         lines.append("")
     _report.write_lines(path, lines)
 
@@ -124,6 +157,11 @@ def main():
     p.add_argument("--refine", nargs="*", default=["48,32", "64,32"], help="span,fine meshes to land the best on")
     p.add_argument("--refine-only", action="store_true",
                    help="skip the search: land the best design of the saved JSON on the --refine meshes")
+    p.add_argument("--batch-case", type=int, nargs="*", default=[],
+                   help="captures J of the design batch (design_feasibility.py's) landed with the design case; "
+                   "the score is the worst over all")  # fmt: skip
+    p.add_argument("--batch-n", type=int, default=16, help="captures in the design batch (default 16)")
+    p.add_argument("--tag", default="", help="suffix of the results' file names (e.g. _pair7)")
     p.add_argument("--quick", action="store_true")
     p.add_argument("--out", default=None)
     args = p.parse_args()
@@ -133,11 +171,14 @@ def main():
         p.error(f"--knots must be at least 2, got {args.knots}")
     enable_x64()
     out = _report.output_dir(args.out, args.quick)
+    stem = STEM + args.tag
     criteria = LandingCriteria()
     space = shaped_space(args.knots)
-    data = _report.start(level=args.level, knots=args.knots, t_end_s=args.t_end, search=[], refined=[])
+    captures = {f"case {j}": batch_capture(j, args.batch_n) for j in args.batch_case}
+    data = _report.start(level=args.level, knots=args.knots, t_end_s=args.t_end, search=[], refined=[],
+                         batch_cases=args.batch_case, batch_n=args.batch_n)  # fmt: skip
     if args.refine_only:  # the search of an earlier (possibly stopped) run, refined now
-        saved = json.loads((out / f"{STEM}.json").read_text())
+        saved = json.loads((out / f"{stem}.json").read_text())
         data.update(search=saved["search"], level=saved["level"], knots=saved["knots"], t_end_s=saved["t_end_s"],
                     search_date=saved.get("search_date", saved["date"]),
                     search_load=saved.get("search_load", [saved["load_start"], saved.get("load_end")]),
@@ -145,15 +186,17 @@ def main():
         args.level, args.t_end = saved["level"], saved["t_end_s"]
 
     def f(u):
-        row = land(args.level, np.asarray(space.to_physical(u)), args.t_end, criteria)
+        row = land_cases(args.level, np.asarray(space.to_physical(u)), args.t_end, criteria, captures)
         data["search"].append(row)
         print(len(data["search"]), f"{row['worst']:.4f}", _criteria(row), _design(row), f"{row['wall_s']:.1f} s", flush=True)
-        _report.save(data, out, STEM)
+        _report.save(data, out, stem)
         return row["worst"]
 
     if not args.refine_only:
-        m_w, f_f = (float(v) for v in args.start.split(","))
-        u0 = np.asarray(space.to_unconstrained(np.array([m_w, f_f] + [1.0] * args.knots)))
+        start = [float(v) for v in args.start.split(",")]
+        if len(start) not in (2, 2 + args.knots):
+            p.error(f"--start takes m_w,F_f or m_w,F_f and {args.knots} factors; got {args.start!r}")
+        u0 = np.asarray(space.to_unconstrained(np.array(start + [1.0] * (2 + args.knots - len(start)))))
         # initial simplex: each variable moved by 0.4 in the logistic's argument (about 10% of its range)
         simplex = np.vstack([u0] + [u0 + 0.4 * np.eye(len(u0))[i] for i in range(len(u0))])
         minimize(f, u0, method="Nelder-Mead",
@@ -164,15 +207,15 @@ def main():
         n_span, n_fine = (int(v) for v in mesh.split(","))
         if [n_span, n_fine] in [r["mesh"] for r in data["refined"]]:
             continue  # landed by an earlier run (--refine-only keeps its rows)
-        row = land(args.level, x_best, args.t_end, criteria, n_span_elements=n_span, n_fine=n_fine)
+        row = land_cases(args.level, x_best, args.t_end, criteria, captures, n_span_elements=n_span, n_fine=n_fine)
         row["mesh"] = [n_span, n_fine]
         data["refined"].append(row)
         print("refined", mesh, f"{row['worst']:.4f}", _criteria(row), flush=True)
-        _report.save(data, out, STEM)
+        _report.save(data, out, stem)
     if data["refined"]:
         data["refined"].insert(0, dict(best, mesh=[N_SPAN, N_FINE]))
         data["refined"].sort(key=lambda r: r["mesh"])
-    _report.finish(data, out, STEM, write_md)
+    _report.finish(data, out, stem, write_md)
 
 
 if __name__ == "__main__":
