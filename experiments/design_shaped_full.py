@@ -146,6 +146,40 @@ def write_md(data, path):
     _report.write_lines(path, lines)
 
 
+def plot_pair(data, path):
+    """Each evaluation of a search with batch cases: the design case's worst normalised criterion
+    against each batch case's, coloured by m_w; the quadrant where both are below 1 (every
+    criterion met on both) shaded. A design that lands both captures lies in it."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = [r for r in data["search"] if r.get("cases") and r["worst"] < FAILED]
+    names = list(rows[0]["cases"]) if rows else []
+    fig, axes = plt.subplots(1, max(len(names), 1), figsize=(5.6 * max(len(names), 1), 4.6), squeeze=False)
+    for ax, name in zip(axes[0], names):
+        x = [r["design_case_worst"] for r in rows]
+        y = [r["cases"][name]["worst"] for r in rows]
+        sc = ax.scatter(x, y, c=[r["m_w_kg"] for r in rows], cmap="viridis", s=22)
+        best = min(rows, key=lambda r: r["worst"])
+        ax.plot(best["design_case_worst"], best["cases"][name]["worst"], "r*", ms=12, label="best (" + _design(best) + ")")
+        lo = 0.95 * min(min(x), min(y), 1.0)
+        ax.fill_between([lo, 1.0], lo, 1.0, color="tab:green", alpha=0.15, label="every criterion met on both")
+        ax.axvline(1.0, color="k", ls="--", lw=0.8)
+        ax.axhline(1.0, color="k", ls="--", lw=0.8)
+        ax.set_xlim(left=lo)
+        ax.set_ylim(bottom=lo)
+        ax.set_xlabel("design case: max(z/10 m, a/5 g, sigma/800 MPa)")
+        ax.set_ylabel(f"{name}: max(z/10 m, a/5 g, sigma/800 MPa)")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, loc="upper right")
+        fig.colorbar(sc, ax=ax, label="counterweight m_w [kg]")
+    fig.suptitle(f"Nelder-Mead over m_w, F_f and {data['knots']} brake factors, {data['level']} level", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--level", default="full", choices=["rigid", "ale", "full"])
@@ -162,9 +196,17 @@ def main():
                    "the score is the worst over all")  # fmt: skip
     p.add_argument("--batch-n", type=int, default=16, help="captures in the design batch (default 16)")
     p.add_argument("--tag", default="", help="suffix of the results' file names (e.g. _pair7)")
+    p.add_argument("--replot", action="store_true", help="redraw the figure and the table from the saved JSON")
     p.add_argument("--quick", action="store_true")
     p.add_argument("--out", default=None)
     args = p.parse_args()
+    if args.replot:
+        out = _report.output_dir(args.out, args.quick)
+        data = json.loads((out / f"{STEM + args.tag}.json").read_text())
+        if data.get("batch_cases"):
+            plot_pair(data, out / f"{STEM + args.tag}.png")
+        write_md(data, out / f"{STEM + args.tag}.md")
+        return
     if args.quick:
         args.level, args.evaluations, args.t_end, args.refine = "ale", 8, 0.3, []
     if args.knots < 2:
@@ -215,6 +257,8 @@ def main():
     if data["refined"]:
         data["refined"].insert(0, dict(best, mesh=[N_SPAN, N_FINE]))
         data["refined"].sort(key=lambda r: r["mesh"])
+    if data["batch_cases"]:
+        plot_pair(data, out / f"{stem}.png")
     _report.finish(data, out, stem, write_md)
 
 
