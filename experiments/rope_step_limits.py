@@ -13,16 +13,23 @@ kilonewtons (~500 rad/s) suggested an implicit method would take fewer. Two meas
     Tsit5 at 10 m and 5 m segments (``--dense-segments``; the dense Jacobian costs one JVP per state
     number, so only coarse ropes), rtol = atol = 1e-4: steps, rejected steps and the range. No
     structured linearisation can take fewer steps than the exact one.
+(c) The step-size controller at 1 m segments: Tsit5 with diffrax's I controller (``pcoeff=0,
+    icoeff=1``, ``simulate``'s default) against the PI controller (``pcoeff=0.4, icoeff=0.3``) at
+    rtol = atol 1e-4 and 1e-3: steps, rejected steps, the largest relative error of range, max
+    speed and flight time against Tsit5 at 1e-8, and the run time (the fastest of ``--repeats``
+    calls, the settings interleaved so that a load change hits them alike).
 
 Writes ``rope_step_limits.json/.md``. Usage (about 3 min on 2 cores):
 
     python experiments/rope_step_limits.py
     python experiments/rope_step_limits.py --quick     # 5 m segments, two tolerances, 10 m dense
+    python experiments/rope_step_limits.py --parts c   # only (c); (a) and (b) kept from the saved JSON
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import time
 
 import _report
@@ -35,6 +42,38 @@ from jaxcable.throw import line_throwing_scene
 
 STEM = "rope_step_limits"
 T1_S = 40.0
+
+
+QUANTITIES = ("range_m", "max_speed_mps", "flight_time_s")
+CONTROLLERS = {"I": (0.0, 1.0), "PI": (0.4, 0.3)}  # (pcoeff, icoeff)
+
+
+def controllers(segment_m, rtols, repeats):
+    """Part (c): Tsit5 with the I and the PI controller at each of ``rtols``; rows."""
+    scene = line_throwing_scene(angle_deg=30.0, segment_length_m=segment_m)
+
+    def run(rtol, name):
+        pcoeff, icoeff = CONTROLLERS[name]
+        r = jaxcable.simulate(scene, T1_S, solver="tsit5", rtol=rtol, atol=rtol, pcoeff=pcoeff, icoeff=icoeff)
+        jax.block_until_ready(r.t_final)
+        return r
+
+    ref = run(1e-8, "I")
+    settings = [(rtol, name) for rtol in rtols for name in CONTROLLERS]
+    results = {s: run(*s) for s in settings}  # compiled here, checked below
+    walls = {s: [] for s in settings}
+    for _ in range(repeats):
+        for s in settings:
+            t0 = time.perf_counter()
+            run(*s)
+            walls[s].append(time.perf_counter() - t0)
+    rows = []
+    for (rtol, name), r in results.items():
+        err = max(abs(float(r.outputs[k]) - float(ref.outputs[k])) / abs(float(ref.outputs[k])) for k in QUANTITIES)
+        rows.append({"segment_m": segment_m, "rtol": rtol, "controller": name, "pcoeff_icoeff": list(CONTROLLERS[name]),
+                     "steps": int(r.num_steps), "rejected": int(r.num_rejected), "error": err,
+                     "run_s": min(walls[(rtol, name)]), "runs_s": walls[(rtol, name)]})  # fmt: skip
+    return rows, int(ref.num_steps)
 
 
 def flight(segment_m, solver, rtol):
@@ -63,6 +102,10 @@ def flight(segment_m, solver, rtol):
 
 def write_md(data, path):
     lines = ["# What sets the line-throwing flight's step count", "", *_report.header(data), ""]
+    if data.get("kept"):
+        k = data["kept"]
+        lines += [(f"Parts {', '.join(k['parts'])} are kept from an earlier run: {k['date']}, {k['machine']} "
+                  f"`{k['command']}`."), ""]  # fmt: skip
     lines += ["## (a) Tsit5 against the tolerance", "",
               "| segment | rtol = atol | steps | rejected | segments pulled out | steps per completion | range [m] | run [s] |",
               "|---:|---:|---:|---:|---:|---:|---:|---:|"]  # fmt: skip
@@ -81,6 +124,19 @@ def write_md(data, path):
         )
     lines += ["", "`rosw_dense`: ROS34PW2 with `jax.jacfwd` of the whole vector field at every step (the exact",
               "Jacobian; its run time is that of the dense Jacobian and LU, not a candidate product setting)."]  # fmt: skip
+    if data.get("controllers"):
+        lines += ["", "## (c) The step-size controller (Tsit5)", "",
+                  (f"Error: the largest relative error of range, max speed and flight time against Tsit5 at 1e-8 "
+                  f"({data['controllers_reference_steps']} steps). Run: the fastest of {data['controllers_repeats']} "
+                  "calls, the settings interleaved."), "",
+                  "| segment | rtol = atol | controller (pcoeff, icoeff) | steps | rejected | attempts | error | run [s] |",
+                  "|---:|---:|---|---:|---:|---:|---:|---:|"]  # fmt: skip
+        for r in data["controllers"]:
+            pc, ic = r["pcoeff_icoeff"]
+            lines.append(
+                f"| {r['segment_m']:g} m | {r['rtol']:.0e} | {r['controller']} ({pc:g}, {ic:g}) | {r['steps']} | "
+                f"{r['rejected']} | {r['steps'] + r['rejected']} | {r['error']:.1e} | {r['run_s']:.2f} |"
+            )
     _report.write_lines(path, lines)
 
 
@@ -89,6 +145,10 @@ def main():
     p.add_argument("--segment", type=float, default=1.0, help="segment length of part (a) [m]")
     p.add_argument("--rtols", nargs="+", type=float, default=[1e-3, 1e-4, 1e-5, 1e-6])
     p.add_argument("--dense-segments", nargs="+", type=float, default=[10.0, 5.0])
+    p.add_argument("--controller-rtols", nargs="+", type=float, default=[1e-4, 1e-3], help="tolerances of part (c)")
+    p.add_argument("--repeats", type=int, default=5, help="timed calls per setting in part (c) (default 5)")
+    p.add_argument("--parts", nargs="+", default=["a", "b", "c"], choices=["a", "b", "c"],
+                   help="parts to run (default all); the others are kept from the saved JSON")  # fmt: skip
     p.add_argument("--quick", action="store_true")
     p.add_argument("--out", default=None)
     args = p.parse_args()
@@ -96,12 +156,29 @@ def main():
     if args.quick:
         args.segment, args.rtols, args.dense_segments = 5.0, [1e-3, 1e-4], [10.0]
     out = _report.output_dir(args.out, args.quick)
-    data = _report.start(tolerance=[], dense=[])
-    for rtol in args.rtols:
+    data = _report.start(tolerance=[], dense=[], controllers=[])
+    saved = out / f"{STEM}.json"
+    if set(args.parts) != {"a", "b", "c"} and saved.exists():
+        old = json.loads(saved.read_text())
+        keep = {"a": ("tolerance",), "b": ("dense",), "c": ("controllers", "controllers_reference_steps", "controllers_repeats")}
+        for part, keys in keep.items():
+            if part not in args.parts:
+                data.update({k: old[k] for k in keys if k in old})
+        kept = sorted(set("abc") - set(args.parts))
+        data["kept"] = {"parts": kept, "date": old.get("kept", {}).get("date", old["date"]),
+                        "machine": old.get("kept", {}).get("machine", _report.machine_line(old["machine"])),
+                        "command": old.get("kept", {}).get("command", old["command"])}  # fmt: skip
+    if "c" in args.parts:
+        data["controllers"], data["controllers_reference_steps"] = controllers(args.segment, args.controller_rtols, args.repeats)
+        data["controllers_repeats"] = args.repeats
+        for row in data["controllers"]:
+            print(row, flush=True)
+        _report.save(data, out, STEM)
+    for rtol in args.rtols if "a" in args.parts else []:
         data["tolerance"].append(flight(args.segment, "tsit5", rtol))
         print(data["tolerance"][-1], flush=True)
         _report.save(data, out, STEM)
-    for seg in args.dense_segments:
+    for seg in args.dense_segments if "b" in args.parts else []:
         for solver in ("tsit5", "rosw_dense"):
             data["dense"].append(flight(seg, solver, 1e-4))
             print(data["dense"][-1], flush=True)

@@ -57,6 +57,8 @@ def test_help_exits_0(command, capsys):
         (["throw", "--segment-length", "0"], "--segment-length"),
         (["throw", "--solver", "rk99"], "--solver"),
         (["throw", "--bogus"], "--bogus"),
+        (["throw", "--pcoeff", "-0.1"], "--pcoeff"),
+        (["throw", "--icoeff", "0"], "--icoeff"),
         (["land", "--fidelity", "medium"], "--fidelity"),
         (["land", "--t-end", "-1"], "--t-end"),
         (["land", "--x", "three"], "--x"),
@@ -89,6 +91,17 @@ def test_no_cache_flag_before_or_after_the_command():
     assert parser.parse_args(["throw"]).no_cache is False
     assert parser.parse_args(["--no-cache", "throw"]).no_cache is True
     assert parser.parse_args(["land", "--no-cache"]).no_cache is True
+
+
+def test_throw_runs_the_pi_step_size_controller_by_default():
+    """``jaxcable throw`` passes THROW_STEP_CONTROL (the PI controller measured by
+    experiments/rope_step_limits.py, part c) unless told otherwise."""
+    from jaxcable.throw.scene import THROW_STEP_CONTROL
+
+    args = build_parser().parse_args(["throw"])
+    assert (args.pcoeff, args.icoeff) == THROW_STEP_CONTROL == (0.4, 0.3)
+    args = build_parser().parse_args(["throw", "--pcoeff", "0", "--icoeff", "1"])
+    assert (args.pcoeff, args.icoeff) == (0.0, 1.0)
 
 
 def test_cache_folder_from_the_environment(monkeypatch, tmp_path):

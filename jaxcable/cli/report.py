@@ -48,6 +48,18 @@ def positive(flag: str):
     return parse
 
 
+def non_negative(flag: str):
+    """Argument type: a float >= 0, refused naming ``flag`` (exit status 2)."""
+
+    def parse(text: str) -> float:
+        value = float(text)
+        if not value >= 0:
+            raise argparse.ArgumentTypeError(f"{flag} must be >= 0, got {text}")
+        return value
+
+    return parse
+
+
 def cable_damping(flag: str = "--cable-damping"):
     """Argument type: the cables' Rayleigh beta [s], a float >= 0 or ``calibrated`` (the value fitted to
     the paper's section III.F, :data:`jaxcable.arresting.calibration.CALIBRATED_CABLE_DAMPING_S`);

@@ -8,11 +8,11 @@ import argparse
 
 import numpy as np
 
-from jaxcable.cli.report import Report, in_open_interval, positive
+from jaxcable.cli.report import Report, in_open_interval, non_negative, positive
 from jaxcable.core.config import enable_x64
 from jaxcable.core.simulate import SOLVERS, simulate
 from jaxcable.throw.plotting import plot_flight
-from jaxcable.throw.scene import line_throwing_scene, report
+from jaxcable.throw.scene import THROW_STEP_CONTROL, line_throwing_scene, report
 
 DESCRIPTION = " ".join(__doc__.split("\n\n")[0].split())
 HELP = "fly the line-throwing rocket once (calibrated defaults)"
@@ -32,6 +32,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     # Dopri5 at 1e-5
     p.add_argument("--solver", choices=sorted(SOLVERS), default="tsit5", help="diffrax solver (default tsit5)")
     p.add_argument("--rtol", type=positive("--rtol"), default=1e-4, help="relative = absolute tolerance (default 1e-4: range, max speed, flight time within 4e-5 of a Dopri8 1e-10 reference)")
+    # the PI step-size controller: at 1 m segments and rtol 1e-4 it attempts 1,365 steps (192
+    # rejected) against the I controller's 1,659 (580 rejected), range, max speed and flight time
+    # within 4.5e-5 against 3.8e-5 of Tsit5 at 1e-8, 0.84x the time (experiments/rope_step_limits.py,
+    # part c; docs/stiff_integrator.md)
+    p.add_argument("--pcoeff", type=non_negative("--pcoeff"), default=THROW_STEP_CONTROL[0],
+                   help=f"proportional coefficient of the PID step-size controller (default {THROW_STEP_CONTROL[0]:g}: PI)")  # fmt: skip
+    p.add_argument("--icoeff", type=positive("--icoeff"), default=THROW_STEP_CONTROL[1],
+                   help=f"integral coefficient of the PID step-size controller (default {THROW_STEP_CONTROL[1]:g}; "
+                   "--pcoeff 0 --icoeff 1: diffrax's I controller)")  # fmt: skip
     p.add_argument("--t-max", type=positive("--t-max"), default=40.0, help="longest flight simulated [s]")
     p.add_argument("--plot", metavar="PATH", help="write a PNG of trajectory, speed and rope shapes")
     p.add_argument("--json", action="store_true", help="print one JSON object")
@@ -47,7 +56,8 @@ def run(args: argparse.Namespace) -> Report:
         pullout=args.pullout,
         drag_form=args.drag_form,
     )
-    result = simulate(scene, args.t_max, solver=args.solver, rtol=args.rtol, atol=args.rtol)
+    result = simulate(scene, args.t_max, solver=args.solver, rtol=args.rtol, atol=args.rtol,
+                      pcoeff=args.pcoeff, icoeff=args.icoeff)  # fmt: skip
     out = report(result.outputs, result.status_message)
     out["angle_deg"] = args.angle
     out["segment_length_m"] = args.segment_length
