@@ -130,6 +130,8 @@ def write_md(data, path):
             lines.append(f"| {i} | {r['worst']:.4f} | {_criteria(r)} | {stopped} | {_design(r)} |")
     per = f" of {1 + len(cases)} landings each" if cases else ""
     lines += ["", f"{len(rows)} evaluations{per}; the rows above are the start and each improvement.", ""]
+    if data.get("note"):
+        lines += [data["note"], ""]
     if data.get("search_date"):
         start, end = data["search_load"]
         when = f"{data['search_date']} (load average at its start {start}, " + (
