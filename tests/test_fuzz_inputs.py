@@ -137,6 +137,8 @@ CLI_FLAGS = {
     "--segment-length": (outside(0.1, 800.0), ["segment_length", "segment-length"], THROW),
     "--rope-length": (outside(0.0, 5000.0, low_open=True), ["rope_length", "rope-length"], THROW),
     "--t-max": (outside(0.0, 600.0, low_open=True), ["t-max", "t1"], THROW),
+    "--pcoeff": (outside(0.0), ["pcoeff"], THROW),
+    "--icoeff": (outside(0.0, low_open=True), ["icoeff"], THROW),
 }
 """Each flag's bad values, the names its error may use (the flag, or the builder's field it feeds:
 ``--t-max`` is :func:`jaxcable.core.simulate`'s ``t1``, ``--fine-elements`` the scene's ``n_fine``),

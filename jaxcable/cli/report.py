@@ -49,12 +49,12 @@ def positive(flag: str):
 
 
 def non_negative(flag: str):
-    """Argument type: a float >= 0, refused naming ``flag`` (exit status 2)."""
+    """Argument type: a finite float >= 0, refused naming ``flag`` (exit status 2)."""
 
     def parse(text: str) -> float:
         value = float(text)
-        if not value >= 0:
-            raise argparse.ArgumentTypeError(f"{flag} must be >= 0, got {text}")
+        if not 0 <= value < float("inf"):
+            raise argparse.ArgumentTypeError(f"{flag} must be finite and >= 0, got {text}")
         return value
 
     return parse

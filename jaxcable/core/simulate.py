@@ -343,9 +343,7 @@ def simulate(
     if solver is None:
         raise ValueError(f"unknown solver None; choose one of {sorted(SOLVERS)} or a diffrax solver")
     check_positive("icoeff", icoeff)
-    real("pcoeff", pcoeff)
-    if not (pcoeff >= 0.0):
-        raise ValueError(f"pcoeff must be >= 0, got {pcoeff!r}")
+    check_positive("pcoeff", pcoeff, allow_zero=True)
     check_bool("progress", progress)
     check_bool("jit", jit)
     if save_ts is not None:
