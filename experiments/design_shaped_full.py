@@ -228,6 +228,11 @@ def main():
                     search_load=saved.get("search_load", [saved["load_start"], saved.get("load_end")]),
                     refined=[r for r in saved.get("refined", []) if r["mesh"] != [N_SPAN, N_FINE]])  # fmt: skip
         args.level, args.t_end = saved["level"], saved["t_end_s"]
+        # the search's own captures (and its note), whatever --batch-case says now
+        batch_n = saved.get("batch_n", args.batch_n)
+        captures = {f"case {j}": batch_capture(j, batch_n) for j in saved.get("batch_cases") or []}
+        data.update(batch_cases=saved.get("batch_cases") or [], batch_n=batch_n,
+                    **({"note": saved["note"]} if saved.get("note") else {}))  # fmt: skip
 
     def f(u):
         row = land_cases(args.level, np.asarray(space.to_physical(u)), args.t_end, criteria, captures)
