@@ -90,6 +90,11 @@ def land_cases(level, x, t_end, criteria, captures, **mesh):
     return row
 
 
+def _stopped(r):
+    """The rocket stopped in every landing of evaluation ``r`` (the design case and its batch cases)."""
+    return r["stopped"] and all(c["stopped"] for c in r.get("cases", {}).values())
+
+
 def _design(r):
     return f"{r['m_w_kg']:.0f} kg, {r['F_f_N']:.4g} N, factors " + " ".join(f"{f:.2f}" for f in r["factors"])
 
@@ -126,8 +131,7 @@ def write_md(data, path):
     for i, r in enumerate(rows):
         if i == 0 or r["worst"] < best:
             best = r["worst"]
-            stopped = r["stopped"] and all(c["stopped"] for c in r.get("cases", {}).values())
-            lines.append(f"| {i} | {r['worst']:.4f} | {_criteria(r)} | {stopped} | {_design(r)} |")
+            lines.append(f"| {i} | {r['worst']:.4f} | {_criteria(r)} | {_stopped(r)} | {_design(r)} |")
     per = f" of {1 + len(cases)} landings each" if cases else ""
     lines += ["", f"{len(rows)} evaluations{per}; the rows above are the start and each improvement.", ""]
     if data.get("note"):
@@ -142,8 +146,7 @@ def write_md(data, path):
                   "| mesh (span / fine elements) | worst | z_max [m] / a_max [g] / sigma_max [MPa] | stopped |",
                   "|---|---:|---|---|"]  # fmt: skip
         for r in data["refined"]:
-            stopped = r["stopped"] and all(c["stopped"] for c in r.get("cases", {}).values())
-            lines.append(f"| {r['mesh'][0]} / {r['mesh'][1]} | {r['worst']:.4f} | {_criteria(r)} | {stopped} |")
+            lines.append(f"| {r['mesh'][0]} / {r['mesh'][1]} | {r['worst']:.4f} | {_criteria(r)} | {_stopped(r)} |")
         lines.append("")
     _report.write_lines(path, lines)
 
@@ -202,12 +205,13 @@ def main():
     p.add_argument("--quick", action="store_true")
     p.add_argument("--out", default=None)
     args = p.parse_args()
+    stem = STEM + args.tag
     if args.replot:
         out = _report.output_dir(args.out, args.quick)
-        data = json.loads((out / f"{STEM + args.tag}.json").read_text())
+        data = json.loads((out / f"{stem}.json").read_text())
         if data.get("batch_cases"):
-            plot_pair(data, out / f"{STEM + args.tag}.png")
-        write_md(data, out / f"{STEM + args.tag}.md")
+            plot_pair(data, out / f"{stem}.png")
+        write_md(data, out / f"{stem}.md")
         return
     if args.quick:
         args.level, args.evaluations, args.t_end, args.refine = "ale", 8, 0.3, []
@@ -215,10 +219,8 @@ def main():
         p.error(f"--knots must be at least 2, got {args.knots}")
     enable_x64()
     out = _report.output_dir(args.out, args.quick)
-    stem = STEM + args.tag
     criteria = LandingCriteria()
     space = shaped_space(args.knots)
-    captures = {f"case {j}": batch_capture(j, args.batch_n) for j in args.batch_case}
     data = _report.start(level=args.level, knots=args.knots, t_end_s=args.t_end, search=[], refined=[],
                          batch_cases=args.batch_case, batch_n=args.batch_n)  # fmt: skip
     if args.refine_only:  # the search of an earlier (possibly stopped) run, refined now
@@ -229,10 +231,9 @@ def main():
                     refined=[r for r in saved.get("refined", []) if r["mesh"] != [N_SPAN, N_FINE]])  # fmt: skip
         args.level, args.t_end = saved["level"], saved["t_end_s"]
         # the search's own captures (and its note), whatever --batch-case says now
-        batch_n = saved.get("batch_n", args.batch_n)
-        captures = {f"case {j}": batch_capture(j, batch_n) for j in saved.get("batch_cases") or []}
-        data.update(batch_cases=saved.get("batch_cases") or [], batch_n=batch_n,
+        data.update(batch_cases=saved.get("batch_cases") or [], batch_n=saved.get("batch_n", args.batch_n),
                     **({"note": saved["note"]} if saved.get("note") else {}))  # fmt: skip
+    captures = {f"case {j}": batch_capture(j, data["batch_n"]) for j in data["batch_cases"]}
 
     def f(u):
         row = land_cases(args.level, np.asarray(space.to_physical(u)), args.t_end, criteria, captures)

@@ -32,10 +32,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     # Dopri5 at 1e-5
     p.add_argument("--solver", choices=sorted(SOLVERS), default="tsit5", help="diffrax solver (default tsit5)")
     p.add_argument("--rtol", type=positive("--rtol"), default=1e-4, help="relative = absolute tolerance (default 1e-4: range, max speed, flight time within 4e-5 of a Dopri8 1e-10 reference)")
-    # the PI step-size controller: at 1 m segments and rtol 1e-4 it attempts 1,365 steps (192
-    # rejected) against the I controller's 1,659 (580 rejected), range, max speed and flight time
-    # within 4.5e-5 against 3.8e-5 of Tsit5 at 1e-8, 0.84x the time (experiments/rope_step_limits.py,
-    # part c; docs/stiff_integrator.md)
+    # the PI step-size controller; its measurement: THROW_STEP_CONTROL's docstring
     p.add_argument("--pcoeff", type=non_negative("--pcoeff"), default=THROW_STEP_CONTROL[0],
                    help=f"proportional coefficient of the PID step-size controller (default {THROW_STEP_CONTROL[0]:g}: PI)")  # fmt: skip
     p.add_argument("--icoeff", type=positive("--icoeff"), default=THROW_STEP_CONTROL[1],
