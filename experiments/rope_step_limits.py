@@ -18,17 +18,23 @@ kilonewtons (~500 rad/s) suggested an implicit method would take fewer. Two meas
     rtol = atol 1e-4 and 1e-3: steps, rejected steps, the largest relative error of range, max
     speed and flight time against Tsit5 at 1e-8, and the run time (the fastest of ``--repeats``
     calls, the settings interleaved so that a load change hits them alike).
+(d) The windowed evaluation at 1 m segments: Tsit5 with the PI controller (``jaxcable throw``'s
+    settings) evaluating every link of the box at every call (``window_links=()``, the only
+    evaluation when the saved parts a-c ran) against the default windows (the vector field computed on the smallest of 64, 128, 256,
+    512 links that holds the deployed rope): steps, error against Tsit5 at 1e-8, the first call
+    (tracing and compiling included) and the fastest of ``--repeats`` interleaved calls.
 
 Writes ``rope_step_limits.json/.md``. Usage (about 3 min on 2 cores):
 
     python experiments/rope_step_limits.py
     python experiments/rope_step_limits.py --quick     # 5 m segments, two tolerances, 10 m dense
-    python experiments/rope_step_limits.py --parts c   # only (c); (a) and (b) kept from the saved JSON
+    python experiments/rope_step_limits.py --parts d   # only (d); the others kept from the saved JSON
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import time
 
@@ -76,6 +82,45 @@ def controllers(segment_m, rtols, repeats):
     return rows, int(ref.num_steps)
 
 
+WINDOWS = {"whole box": (), "default windows": None}  # LineThrowingScene.window_links
+
+
+def windows(segment_m, rtols, repeats):
+    """Part (d): Tsit5 with the PI controller, every link against the default windows; rows."""
+    base = line_throwing_scene(angle_deg=30.0, segment_length_m=segment_m)
+    scenes = {name: dataclasses.replace(base, window_links=w) for name, w in WINDOWS.items()}
+    pcoeff, icoeff = CONTROLLERS["PI"]
+
+    def run(rtol, name, **kw):
+        kw = kw or {"pcoeff": pcoeff, "icoeff": icoeff}
+        r = jaxcable.simulate(scenes[name], T1_S, solver="tsit5", rtol=rtol, atol=rtol, **kw)
+        jax.block_until_ready(r.t_final)
+        return r
+
+    ref = run(1e-8, "default windows", pcoeff=0.0, icoeff=1.0)
+    settings = [(rtol, name) for rtol in rtols for name in WINDOWS]
+    results, first = {}, {}
+    for s in settings:
+        t0 = time.perf_counter()
+        results[s] = run(*s)
+        first[s] = time.perf_counter() - t0
+    walls = {s: [] for s in settings}
+    for _ in range(repeats):
+        for s in settings:
+            t0 = time.perf_counter()
+            run(*s)
+            walls[s].append(time.perf_counter() - t0)
+    rows = []
+    for (rtol, name), r in results.items():
+        err = max(abs(float(r.outputs[k]) - float(ref.outputs[k])) / abs(float(ref.outputs[k])) for k in QUANTITIES)
+        rows.append({"segment_m": segment_m, "rtol": rtol, "evaluation": name,
+                     "windows": list(scenes[name].windows), "steps": int(r.num_steps),
+                     "rejected": int(r.num_rejected), "error": err, "first_call_s": first[(rtol, name)],
+                     "run_s": min(walls[(rtol, name)]), "runs_s": walls[(rtol, name)],
+                     "run_ratio": min(walls[(rtol, name)]) / min(walls[(rtol, "whole box")])})  # fmt: skip
+    return rows, int(ref.num_steps)
+
+
 def flight(segment_m, solver, rtol):
     """One 30 deg flight to impact, timed on the second (compiled) call; returns a row."""
     scene = line_throwing_scene(angle_deg=30.0, segment_length_m=segment_m)
@@ -100,12 +145,42 @@ def flight(segment_m, solver, rtol):
     }  # fmt: skip
 
 
+PARTS = {"a": ("tolerance",), "b": ("dense",), "c": ("controllers", "controllers_reference_steps", "controllers_repeats"),
+         "d": ("windows", "windows_reference_steps", "windows_repeats")}  # fmt: skip
+
+
+def _kept_list(kept):
+    """The saved provenance of kept parts: a list of ``{parts, date, machine, command}`` (one dict in
+    files written before part d)."""
+    if not kept:
+        return []
+    return [kept] if isinstance(kept, dict) else list(kept)
+
+
+def _keep(data, old, run_parts):
+    """Copy the parts not run from the saved JSON ``old``, each with the provenance of the run that
+    measured it (the old run itself, or the earlier run it had kept it from)."""
+    origin = {}
+    for entry in _kept_list(old.get("kept")):
+        for part in entry["parts"]:
+            origin[part] = {k: entry[k] for k in ("date", "machine", "command")}
+    own = {"date": old["date"], "machine": _report.machine_line(old["machine"]), "command": old["command"]}
+    groups = {}
+    for part, keys in PARTS.items():
+        if part in run_parts or not any(k in old for k in keys):
+            continue
+        data.update({k: old[k] for k in keys if k in old})
+        prov = origin.get(part, own)
+        groups.setdefault((prov["date"], prov["machine"], prov["command"]), []).append(part)
+    data["kept"] = [{"parts": parts, "date": d, "machine": m, "command": c} for (d, m, c), parts in groups.items()]
+
+
 def write_md(data, path):
     lines = ["# What sets the line-throwing flight's step count", "", *_report.header(data), ""]
-    if data.get("kept"):
-        k = data["kept"]
-        lines += [(f"Parts {', '.join(k['parts'])} are kept from an earlier run: {k['date']}, {k['machine']} "
-                  f"`{k['command']}`."), ""]  # fmt: skip
+    for k in _kept_list(data.get("kept")):
+        lines += [(f"Part{'s' if len(k['parts']) > 1 else ''} {', '.join(k['parts'])} "
+                   f"{'are' if len(k['parts']) > 1 else 'is'} kept from an earlier run: {k['date']}, {k['machine']} "
+                   f"`{k['command']}`."), ""]  # fmt: skip
     lines += ["## (a) Tsit5 against the tolerance", "",
               "| segment | rtol = atol | steps | rejected | segments pulled out | steps per completion | range [m] | run [s] |",
               "|---:|---:|---:|---:|---:|---:|---:|---:|"]  # fmt: skip
@@ -137,6 +212,22 @@ def write_md(data, path):
                 f"| {r['segment_m']:g} m | {r['rtol']:.0e} | {r['controller']} ({pc:g}, {ic:g}) | {r['steps']} | "
                 f"{r['rejected']} | {r['steps'] + r['rejected']} | {r['error']:.1e} | {r['run_s']:.2f} |"
             )
+    if data.get("windows"):
+        lines += ["", "## (d) The windowed evaluation (Tsit5, PI controller)", "",
+                  ("Every link of the box at every call (`window_links=()`, the only evaluation when the saved parts a-c "
+                   "ran) against the default "
+                   "windows. Error: as in (c), against Tsit5 at 1e-8 with the default windows "
+                   f"({data['windows_reference_steps']} steps). First call: tracing, compiling and one run. Run: "
+                   f"the fastest of {data['windows_repeats']} calls, the settings interleaved; ratio: to the whole "
+                   "box at the same tolerance."), "",
+                  "| segment | rtol = atol | evaluation | steps | rejected | error | first call [s] | run [s] | ratio |",
+                  "|---:|---:|---|---:|---:|---:|---:|---:|---:|"]  # fmt: skip
+        for r in data["windows"]:
+            lines.append(
+                f"| {r['segment_m']:g} m | {r['rtol']:.0e} | {r['evaluation']} {tuple(r['windows']) or ''} | "
+                f"{r['steps']} | {r['rejected']} | {r['error']:.1e} | {r['first_call_s']:.1f} | {r['run_s']:.2f} | "
+                f"{r['run_ratio']:.2f} |"
+            )
     _report.write_lines(path, lines)
 
 
@@ -145,9 +236,9 @@ def main():
     p.add_argument("--segment", type=float, default=1.0, help="segment length of part (a) [m]")
     p.add_argument("--rtols", nargs="+", type=float, default=[1e-3, 1e-4, 1e-5, 1e-6])
     p.add_argument("--dense-segments", nargs="+", type=float, default=[10.0, 5.0])
-    p.add_argument("--controller-rtols", nargs="+", type=float, default=[1e-4, 1e-3], help="tolerances of part (c)")
-    p.add_argument("--repeats", type=int, default=5, help="timed calls per setting in part (c) (default 5)")
-    p.add_argument("--parts", nargs="+", default=["a", "b", "c"], choices=["a", "b", "c"],
+    p.add_argument("--controller-rtols", nargs="+", type=float, default=[1e-4, 1e-3], help="tolerances of parts (c), (d)")
+    p.add_argument("--repeats", type=int, default=5, help="timed calls per setting in parts (c), (d) (default 5)")
+    p.add_argument("--parts", nargs="+", default=list(PARTS), choices=list(PARTS),
                    help="parts to run (default all); the others are kept from the saved JSON")  # fmt: skip
     p.add_argument("--quick", action="store_true")
     p.add_argument("--out", default=None)
@@ -156,22 +247,20 @@ def main():
     if args.quick:
         args.segment, args.rtols, args.dense_segments = 5.0, [1e-3, 1e-4], [10.0]
     out = _report.output_dir(args.out, args.quick)
-    data = _report.start(tolerance=[], dense=[], controllers=[])
+    data = _report.start(tolerance=[], dense=[], controllers=[], windows=[])
     saved = out / f"{STEM}.json"
-    if set(args.parts) != {"a", "b", "c"} and saved.exists():
-        old = json.loads(saved.read_text())
-        keep = {"a": ("tolerance",), "b": ("dense",), "c": ("controllers", "controllers_reference_steps", "controllers_repeats")}
-        for part, keys in keep.items():
-            if part not in args.parts:
-                data.update({k: old[k] for k in keys if k in old})
-        kept = sorted(set("abc") - set(args.parts))
-        data["kept"] = {"parts": kept, "date": old.get("kept", {}).get("date", old["date"]),
-                        "machine": old.get("kept", {}).get("machine", _report.machine_line(old["machine"])),
-                        "command": old.get("kept", {}).get("command", old["command"])}  # fmt: skip
+    if set(args.parts) != set(PARTS) and saved.exists():
+        _keep(data, json.loads(saved.read_text()), args.parts)
     if "c" in args.parts:
         data["controllers"], data["controllers_reference_steps"] = controllers(args.segment, args.controller_rtols, args.repeats)
         data["controllers_repeats"] = args.repeats
         for row in data["controllers"]:
+            print(row, flush=True)
+        _report.save(data, out, STEM)
+    if "d" in args.parts:
+        data["windows"], data["windows_reference_steps"] = windows(args.segment, args.controller_rtols, args.repeats)
+        data["windows_repeats"] = args.repeats
+        for row in data["windows"]:
             print(row, flush=True)
         _report.save(data, out, STEM)
     for rtol in args.rtols if "a" in args.parts else []:

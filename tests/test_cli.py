@@ -104,6 +104,23 @@ def test_throw_runs_the_pi_step_size_controller_by_default():
     assert (args.pcoeff, args.icoeff) == (0.0, 1.0)
 
 
+def test_throw_windows_flag_reaches_the_scene(monkeypatch):
+    """``jaxcable throw`` evaluates the rope on the default windows; ``--no-windows`` on every link."""
+    import jaxcable.cli.throw as throw_cli
+
+    seen = []
+
+    def fake_simulate(scene, *args, **kwargs):
+        seen.append(scene.windows)
+        raise RuntimeError("stop here")
+
+    monkeypatch.setattr(throw_cli, "simulate", fake_simulate)
+    for flags, want in (([], (64, 128, 256, 512)), (["--no-windows"], ())):
+        with pytest.raises(RuntimeError, match="stop here"):
+            throw_cli.run(build_parser().parse_args(["throw", "--rope-length", "750", *flags]))
+        assert seen[-1] == want
+
+
 def test_cache_folder_from_the_environment(monkeypatch, tmp_path):
     monkeypatch.setenv(CACHE_DIR_ENV, str(tmp_path / "here"))
     assert default_cache_dir() == tmp_path / "here"

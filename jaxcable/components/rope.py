@@ -66,6 +66,7 @@ positions; tests check the two agree to rounding error.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import equinox as eqx
@@ -441,7 +442,8 @@ def _rope_like(kin, segment_length_m):
     return SegmentRope(one, one, one, segment_length_m=segment_length_m, capacity=n)
 
 
-def rope_vector_field(state: ChainState, rope: SegmentRope, rocket_mass, theta_launch, force_fn, release_fraction):
+def rope_vector_field(state: ChainState, rope: SegmentRope, rocket_mass, theta_launch, force_fn, release_fraction,
+                      windows=()):
     """d(state)/dt of rocket + rope, with the tail's weld released smoothly at completion.
 
     Over the last ``release_fraction * l`` of a segment's growth the derivative blends (C1 cubic step)
@@ -453,10 +455,15 @@ def rope_vector_field(state: ChainState, rope: SegmentRope, rocket_mass, theta_l
     Args:
         force_fn: ``kin -> forces`` (n+1, 2) [N].
         release_fraction: blending window as a fraction of the segment length (0 disables it).
+        windows: prefix sizes (links, static) to evaluate on while the rope still fits (see
+            :func:`default_windows`); ``()`` evaluates every link of the box.
 
     Returns:
-        ``(derivative, kin)`` with ``kin`` the normal-configuration kinematics.
+        ``(derivative, kin)`` with ``kin`` the normal-configuration kinematics (``None`` with
+        ``windows``: the window's kinematics has the window's size).
     """
+    if len(window_sizes(rope.capacity, windows)) > 1:
+        return _windowed_vector_field(state, rope, rocket_mass, theta_launch, force_fn, release_fraction, windows), None
     seg = rope.segment_length_m
 
     def field(hinged):
@@ -483,3 +490,64 @@ def rope_vector_field(state: ChainState, rope: SegmentRope, rocket_mass, theta_l
 def kinetic_energy(kin: ChainKinematics):
     """Kinetic energy of rocket and rope [J] (material velocities)."""
     return 0.5 * jnp.sum(kin.masses * jnp.sum(kin.velocities**2, -1))
+
+
+
+@jax.custom_batching.custom_vmap
+def _batch_max(index):
+    return index
+
+
+@_batch_max.def_vmap
+def _batch_max_rule(axis_size, in_batched, index):
+    # Under vmap every case computes on the window of its most deployed member: the windows nest, so
+    # a larger one gives each case its own answer, and the switch stays a switch instead of becoming
+    # a select that computes every branch.
+    return (jnp.max(index) if in_batched[0] else index), False
+
+
+def default_windows(capacity: int) -> tuple:
+    """The prefix sizes (links) a rope of ``capacity`` segments is evaluated on by default: the powers
+    of two from 64 below the capacity (64, 128, 256, 512 for the paper's 750 m box at 1 m)."""
+    sizes, size = [], 64
+    while size < capacity:
+        sizes.append(size)
+        size *= 2
+    return tuple(sizes)
+
+
+def window_sizes(capacity: int, windows) -> tuple:
+    """The prefix sizes the windowed vector field switches between: the ``windows`` above 2 and
+    below ``capacity``, ascending, then ``capacity``."""
+    return tuple(sorted({int(w) for w in windows if 2 < int(w) < capacity})) + (capacity,)
+
+
+def _windowed_vector_field(state, rope, rocket_mass, theta_launch, force_fn, release_fraction, windows):
+    """:func:`rope_vector_field` computed on the first ``N`` links only, ``N`` the smallest of
+    :func:`window_sizes` that holds the growing tail and one more link (``k + 2 <= N``).
+
+    Links still in the box have zero length and mass and their angles follow the last free link, so
+    the prefix's derivative, its last entry repeated over the box, is the full one (to rounding: the
+    same operations on fewer entries): the cost of an evaluation follows the deployed rope instead of
+    the box. Which window is a ``lax.switch`` on the integer ``k``; derivatives pass through the
+    chosen branch (the choice has none), and under ``vmap`` the batch shares its largest window.
+    """
+    n = rope.capacity
+    sizes = window_sizes(n, windows)
+    k, _ = payout_geometry(jax.lax.stop_gradient(state), rope)
+    index = sum((k > size - 2).astype(jnp.int32) for size in sizes[:-1])
+    index = _batch_max(jnp.asarray(index, dtype=jnp.int32))
+
+    def branch(size):
+        def run(st):
+            if size == n:
+                return rope_vector_field(st, rope, rocket_mass, theta_launch, force_fn, release_fraction)[0]
+            part = dataclasses.replace(rope, capacity=size)
+            sub = ChainState(r0=st.r0, v0=st.v0, theta=st.theta[:size], omega=st.omega[:size], deployed=st.deployed)
+            d, _ = rope_vector_field(sub, part, rocket_mass, theta_launch, force_fn, release_fraction)
+            pad = lambda a: jnp.concatenate([a, jnp.broadcast_to(a[-1], (n - size,))])
+            return ChainState(r0=d.r0, v0=d.v0, theta=pad(d.theta), omega=pad(d.omega), deployed=d.deployed)
+
+        return run
+
+    return jax.lax.switch(index, [branch(size) for size in sizes], state)

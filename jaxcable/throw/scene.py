@@ -18,13 +18,14 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from jaxcable.core.validation import check_bool, check_choice, check_positive, check_range
+from jaxcable.core.validation import check_bool, check_choice, check_int, check_positive, check_range
 from jaxcable.throw.rocket import PointRocket, paper_rocket
 from jaxcable.throw.forces import AeroDrag, Gravity, Ground, Thrust, make_pullout
 from jaxcable.components.rope import (
     ChainState,
     SegmentRope,
     kinematics,
+    default_windows,
     kinetic_energy,
     launch_theta,
     make_rope,
@@ -95,8 +96,34 @@ class ThrowProbe(eqx.Module):
     kinetic_energy: Array  # [J]
 
 
+@eqx.filter_jit
+def _windowed_field(scene, t, state):
+    # One trace per scene structure: diffrax traces the vector field at several places, each of
+    # which would otherwise trace every window's branch again.
+    return scene._field(t, state, scene.windows)
+
+
+@eqx.filter_jit
+def _whole_field(scene, t, state):
+    return scene._field(t, state, ())
+
+
+def _as_tuple(value):
+    # a list is hashable as a tuple (the field is static); anything else is left for __check_init__
+    return tuple(value) if isinstance(value, list) else value
+
+
 class LineThrowingScene(AbstractScene):
-    """Rocket + finite-segment rope + forces. See the module docstring."""
+    """Rocket + finite-segment rope + forces. See the module docstring.
+
+    ``window_links``: the box holds ``rope.capacity`` links, but while the deployed rope fits in the
+    first ``N`` of them the vector field is computed on those only (the links still in the box have
+    no length and no mass and follow the last free link; :func:`~jaxcable.components.rope.rope_vector_field`
+    with ``windows``). ``None`` (the default) takes the powers of two from 64 below the capacity;
+    ``()`` computes every link at every evaluation. The results agree to rounding; the windows
+    cost compile time (one branch each) and save run time
+    (``python experiments/rope_step_limits.py --parts d``, docs/throw.md "Cost of a flight").
+    """
 
     rocket: PointRocket
     rope: SegmentRope
@@ -104,6 +131,21 @@ class LineThrowingScene(AbstractScene):
     forces: tuple
     save_dt_s: float = eqx.field(static=True, default=0.01)
     release_fraction: float = eqx.field(static=True, default=0.05)
+    window_links: tuple | None = eqx.field(static=True, default=None, converter=_as_tuple)
+
+    def __check_init__(self):
+        if self.window_links is not None:
+            if not isinstance(self.window_links, tuple):
+                raise TypeError(f"window_links must be a tuple of link counts or None, got {self.window_links!r}")
+            for i, size in enumerate(self.window_links):
+                check_int(f"window_links[{i}]", size, low=1)
+
+    @property
+    def windows(self) -> tuple:
+        """Prefix sizes (links) the vector field is evaluated on while the deployed rope fits:
+        ``window_links``, or by default :func:`~jaxcable.components.rope.default_windows` of the
+        box (``()``: every link of the box at every evaluation)."""
+        return default_windows(self.rope.capacity) if self.window_links is None else tuple(self.window_links)
 
     # --- state ---
     def initial_state(self) -> ChainState:
@@ -128,6 +170,9 @@ class LineThrowingScene(AbstractScene):
         return total
 
     def vector_field(self, t, state: ChainState) -> ChainState:
+        return _windowed_field(self, jnp.asarray(t), state)  # t as an array: a float would be static
+
+    def _field(self, t, state, windows):
         deriv, _ = rope_vector_field(
             state,
             self.rope,
@@ -135,6 +180,7 @@ class LineThrowingScene(AbstractScene):
             launch_theta(self.launch.angle_rad),
             lambda kin: self.node_forces(t, kin),
             self.release_fraction,
+            windows=windows,
         )
         return deriv
 
@@ -164,7 +210,10 @@ class LineThrowingScene(AbstractScene):
     def probe(self, t, state):
         # The acceleration is the integrated one (vector_field, with the weld-release blend), so the
         # saved history is the derivative of the saved velocity; the forces give the rope's pull.
-        a0 = self.vector_field(t, state).v0
+        # Every link here: the probe runs once per saved sample, and diffrax places the saving
+        # function at five places of the program, five more copies of the windows' branches to
+        # compile.
+        a0 = _whole_field(self, jnp.asarray(t), state).v0
         kin = self.kinematics(t, state)
         F = self.node_forces(t, kin)
         v = state.v0
@@ -224,6 +273,7 @@ def line_throwing_scene(
     air_density_kgpm3: float = 1.225,
     ground: bool = True,
     drag: bool = True,
+    window_links: tuple | None = None,
 ) -> LineThrowingScene:
     """The paper's line-throwing rocket with the calibrated defaults (``CALIBRATION``).
 
@@ -238,6 +288,9 @@ def line_throwing_scene(
         drag_form: "standard" (default, along the relative velocity) or "per_axis" (the paper's eqs 13-14).
         rail_length_m: initial rocket distance from the box along the launch direction [m].
         ground: include the ground under the rope; drag: include aerodynamic drag.
+        window_links: the link counts the vector field is evaluated on while the deployed rope fits
+            (``LineThrowingScene.window_links``): None for the default windows, ``()`` for every
+            link of the box at every evaluation.
     """
     check_range("angle_deg", angle_deg, 0.0, 90.0, unit=" deg")
     check_choice("drag form", drag_form, ("standard", "per_axis"))
@@ -291,7 +344,7 @@ def line_throwing_scene(
     forces.append(make_pullout(pick(pullout, "pullout"), pullout_force_N))
     if ground:
         forces.append(Ground())
-    return LineThrowingScene(rocket=rocket, rope=rope, launch=launch, forces=tuple(forces))
+    return LineThrowingScene(rocket=rocket, rope=rope, launch=launch, forces=tuple(forces), window_links=window_links)
 
 
 def with_angle(scene: LineThrowingScene, angle_rad) -> LineThrowingScene:
