@@ -54,6 +54,28 @@ QUANTITIES = ("range_m", "max_speed_mps", "flight_time_s")
 CONTROLLERS = {"I": (0.0, 1.0), "PI": (0.4, 0.3)}  # (pcoeff, icoeff)
 
 
+def _interleaved(run, settings, repeats):
+    """Each setting's first call (compiling) and ``repeats`` timed calls, the settings interleaved so
+    that a load change hits them alike: ``(results, first-call seconds, timed seconds)`` by setting."""
+    results, first = {}, {}
+    for s in settings:
+        t0 = time.perf_counter()
+        results[s] = run(*s)
+        first[s] = time.perf_counter() - t0
+    walls = {s: [] for s in settings}
+    for _ in range(repeats):
+        for s in settings:
+            t0 = time.perf_counter()
+            run(*s)
+            walls[s].append(time.perf_counter() - t0)
+    return results, first, walls
+
+
+def _error(r, ref):
+    """Largest relative error of range, max speed and flight time against ``ref``."""
+    return max(abs(float(r.outputs[k]) - float(ref.outputs[k])) / abs(float(ref.outputs[k])) for k in QUANTITIES)
+
+
 def controllers(segment_m, rtols, repeats):
     """Part (c): Tsit5 with the I and the PI controller at each of ``rtols``; rows."""
     scene = line_throwing_scene(angle_deg=30.0, segment_length_m=segment_m)
@@ -66,16 +88,10 @@ def controllers(segment_m, rtols, repeats):
 
     ref = run(1e-8, "I")
     settings = [(rtol, name) for rtol in rtols for name in CONTROLLERS]
-    results = {s: run(*s) for s in settings}  # compiled here, checked below
-    walls = {s: [] for s in settings}
-    for _ in range(repeats):
-        for s in settings:
-            t0 = time.perf_counter()
-            run(*s)
-            walls[s].append(time.perf_counter() - t0)
+    results, _, walls = _interleaved(run, settings, repeats)
     rows = []
     for (rtol, name), r in results.items():
-        err = max(abs(float(r.outputs[k]) - float(ref.outputs[k])) / abs(float(ref.outputs[k])) for k in QUANTITIES)
+        err = _error(r, ref)
         rows.append({"segment_m": segment_m, "rtol": rtol, "controller": name, "pcoeff_icoeff": list(CONTROLLERS[name]),
                      "steps": int(r.num_steps), "rejected": int(r.num_rejected), "error": err,
                      "run_s": min(walls[(rtol, name)]), "runs_s": walls[(rtol, name)]})  # fmt: skip
@@ -99,20 +115,10 @@ def windows(segment_m, rtols, repeats):
 
     ref = run(1e-8, "default windows", pcoeff=0.0, icoeff=1.0)
     settings = [(rtol, name) for rtol in rtols for name in WINDOWS]
-    results, first = {}, {}
-    for s in settings:
-        t0 = time.perf_counter()
-        results[s] = run(*s)
-        first[s] = time.perf_counter() - t0
-    walls = {s: [] for s in settings}
-    for _ in range(repeats):
-        for s in settings:
-            t0 = time.perf_counter()
-            run(*s)
-            walls[s].append(time.perf_counter() - t0)
+    results, first, walls = _interleaved(run, settings, repeats)
     rows = []
     for (rtol, name), r in results.items():
-        err = max(abs(float(r.outputs[k]) - float(ref.outputs[k])) / abs(float(ref.outputs[k])) for k in QUANTITIES)
+        err = _error(r, ref)
         rows.append({"segment_m": segment_m, "rtol": rtol, "evaluation": name,
                      "windows": list(scenes[name].windows), "steps": int(r.num_steps),
                      "rejected": int(r.num_rejected), "error": err, "first_call_s": first[(rtol, name)],
@@ -251,18 +257,13 @@ def main():
     saved = out / f"{STEM}.json"
     if set(args.parts) != set(PARTS) and saved.exists():
         _keep(data, json.loads(saved.read_text()), args.parts)
-    if "c" in args.parts:
-        data["controllers"], data["controllers_reference_steps"] = controllers(args.segment, args.controller_rtols, args.repeats)
-        data["controllers_repeats"] = args.repeats
-        for row in data["controllers"]:
-            print(row, flush=True)
-        _report.save(data, out, STEM)
-    if "d" in args.parts:
-        data["windows"], data["windows_reference_steps"] = windows(args.segment, args.controller_rtols, args.repeats)
-        data["windows_repeats"] = args.repeats
-        for row in data["windows"]:
-            print(row, flush=True)
-        _report.save(data, out, STEM)
+    for part, key, measure in (("c", "controllers", controllers), ("d", "windows", windows)):
+        if part in args.parts:
+            data[key], data[f"{key}_reference_steps"] = measure(args.segment, args.controller_rtols, args.repeats)
+            data[f"{key}_repeats"] = args.repeats
+            for row in data[key]:
+                print(row, flush=True)
+            _report.save(data, out, STEM)
     for rtol in args.rtols if "a" in args.parts else []:
         data["tolerance"].append(flight(args.segment, "tsit5", rtol))
         print(data["tolerance"][-1], flush=True)
