@@ -119,8 +119,9 @@ class LineThrowingScene(AbstractScene):
     ``window_links``: the box holds ``rope.capacity`` links, but while the deployed rope fits in the
     first ``N`` of them the vector field is computed on those only (the links still in the box have
     no length and no mass and follow the last free link; :func:`~jaxcable.components.rope.rope_vector_field`
-    with ``windows``). ``None`` (the default) takes the powers of two from 64 below the capacity;
-    ``()`` computes every link at every evaluation. The results agree to rounding; the windows
+    with ``windows``). ``None`` (the default) takes the powers of two from 64 below the capacity
+    for a box of at least 256 links (``MIN_WINDOWED_CAPACITY``); ``()`` computes every link at
+    every evaluation. The results agree to rounding; the windows
     cost compile time (one branch each) and save run time
     (``python experiments/rope_step_limits.py --parts d``, docs/throw.md "Cost of a flight").
     """
