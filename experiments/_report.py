@@ -144,11 +144,12 @@ def finish(data: dict, out: Path, stem: str, write_md=None) -> None:
     print("wrote", ", ".join(str(p) for p in written))
 
 
-def time_rounds(calls: dict, repeats: int):
+def time_rounds(calls: dict, repeats: int, times: dict | None = None):
     """Call each zero-argument function of ``calls`` once (which compiles it), then all of them in
     turn, round by round (``repeats`` rounds), so that a change of the machine's load hits every one
     alike. Returns ``(outs, first_s, best_s)``: each key's first output, the seconds of its first
-    call and its best seconds over the rounds."""
+    call and its best seconds over the rounds; ``times``, when given, receives each key's seconds of
+    every round."""
     import jax
 
     outs, first = {}, {}
@@ -156,10 +157,12 @@ def time_rounds(calls: dict, repeats: int):
         t = time.perf_counter()
         outs[k] = jax.block_until_ready(fn())
         first[k] = time.perf_counter() - t
-    best = {k: float("inf") for k in calls}
+    rounds = {k: [] for k in calls}
     for _ in range(repeats):
         for k, fn in calls.items():
             t = time.perf_counter()
             jax.block_until_ready(fn())
-            best[k] = min(best[k], time.perf_counter() - t)
-    return outs, first, best
+            rounds[k].append(time.perf_counter() - t)
+    if times is not None:
+        times.update(rounds)
+    return outs, first, {k: min(v, default=float("inf")) for k, v in rounds.items()}

@@ -55,19 +55,10 @@ CONTROLLERS = {"I": (0.0, 1.0), "PI": (0.4, 0.3)}  # (pcoeff, icoeff)
 
 
 def _interleaved(run, settings, repeats):
-    """Each setting's first call (compiling) and ``repeats`` timed calls, the settings interleaved so
-    that a load change hits them alike: ``(results, first-call seconds, timed seconds)`` by setting."""
-    results, first = {}, {}
-    for s in settings:
-        t0 = time.perf_counter()
-        results[s] = run(*s)
-        first[s] = time.perf_counter() - t0
-    walls = {s: [] for s in settings}
-    for _ in range(repeats):
-        for s in settings:
-            t0 = time.perf_counter()
-            run(*s)
-            walls[s].append(time.perf_counter() - t0)
+    """``_report.time_rounds`` of ``run(*setting)`` for each setting: ``(results, first-call seconds,
+    the seconds of every round)`` by setting."""
+    walls = {}
+    results, first, _ = _report.time_rounds({s: (lambda s=s: run(*s)) for s in settings}, repeats, times=walls)
     return results, first, walls
 
 

@@ -462,8 +462,9 @@ def rope_vector_field(state: ChainState, rope: SegmentRope, rocket_mass, theta_l
         ``(derivative, kin)`` with ``kin`` the normal-configuration kinematics (``None`` with
         ``windows``: the window's kinematics has the window's size).
     """
-    if len(window_sizes(rope.capacity, windows)) > 1:
-        return _windowed_vector_field(state, rope, rocket_mass, theta_launch, force_fn, release_fraction, windows), None
+    sizes = window_sizes(rope.capacity, windows)
+    if len(sizes) > 1:
+        return _windowed_vector_field(state, rope, rocket_mass, theta_launch, force_fn, release_fraction, sizes), None
     seg = rope.segment_length_m
 
     def field(hinged):
@@ -490,7 +491,6 @@ def rope_vector_field(state: ChainState, rope: SegmentRope, rocket_mass, theta_l
 def kinetic_energy(kin: ChainKinematics):
     """Kinetic energy of rocket and rope [J] (material velocities)."""
     return 0.5 * jnp.sum(kin.masses * jnp.sum(kin.velocities**2, -1))
-
 
 
 @jax.custom_batching.custom_vmap
@@ -533,9 +533,9 @@ def window_sizes(capacity: int, windows) -> tuple:
     return tuple(sorted({int(w) for w in windows if 2 < int(w) < capacity})) + (capacity,)
 
 
-def _windowed_vector_field(state, rope, rocket_mass, theta_launch, force_fn, release_fraction, windows):
+def _windowed_vector_field(state, rope, rocket_mass, theta_launch, force_fn, release_fraction, sizes):
     """:func:`rope_vector_field` computed on the first ``N`` links only, ``N`` the smallest of
-    :func:`window_sizes` that holds the growing tail and one more link (``k + 2 <= N``).
+    ``sizes`` (from :func:`window_sizes`) that holds the growing tail and one more link (``k + 2 <= N``).
 
     Links still in the box have zero length and mass and their angles follow the last free link, so
     the prefix's derivative, its last entry repeated over the box, is the full one (to rounding: the
@@ -544,7 +544,6 @@ def _windowed_vector_field(state, rope, rocket_mass, theta_launch, force_fn, rel
     chosen branch (the choice has none), and under ``vmap`` the batch shares its largest window.
     """
     n = rope.capacity
-    sizes = window_sizes(n, windows)
     k, _ = payout_geometry(jax.lax.stop_gradient(state), rope)
     index = sum((k > size - 2).astype(jnp.int32) for size in sizes[:-1])
     index = _batch_max(jnp.asarray(index, dtype=jnp.int32))

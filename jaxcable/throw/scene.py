@@ -18,7 +18,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from jaxcable.core.validation import check_bool, check_choice, check_int, check_positive, check_range
+from jaxcable.core.validation import check_bool, check_choice, check_instance, check_int, check_positive, check_range
 from jaxcable.throw.rocket import PointRocket, paper_rocket
 from jaxcable.throw.forces import AeroDrag, Gravity, Ground, Thrust, make_pullout
 from jaxcable.components.rope import (
@@ -135,18 +135,16 @@ class LineThrowingScene(AbstractScene):
     window_links: tuple | None = eqx.field(static=True, default=None, converter=_as_tuple)
 
     def __check_init__(self):
-        if self.window_links is not None:
-            if not isinstance(self.window_links, tuple):
-                raise TypeError(f"window_links must be a tuple of link counts or None, got {self.window_links!r}")
-            for i, size in enumerate(self.window_links):
-                check_int(f"window_links[{i}]", size, low=1)
+        check_instance("window_links", self.window_links, tuple, allow_none=True)
+        for i, size in enumerate(self.window_links or ()):
+            check_int(f"window_links[{i}]", size, low=1)
 
     @property
     def windows(self) -> tuple:
         """Prefix sizes (links) the vector field is evaluated on while the deployed rope fits:
         ``window_links``, or by default :func:`~jaxcable.components.rope.default_windows` of the
         box (``()``: every link of the box at every evaluation)."""
-        return default_windows(self.rope.capacity) if self.window_links is None else tuple(self.window_links)
+        return default_windows(self.rope.capacity) if self.window_links is None else self.window_links
 
     # --- state ---
     def initial_state(self) -> ChainState:
