@@ -239,7 +239,7 @@ class DesignProblem(eqx.Module):
     buffer: BufferDevice
     """fields not designed (transfer rate, brake smoothing width) and the defaults of the rest"""
     layout: ArrestingLayout
-    weights: ObjectiveWeights = ObjectiveWeights()
+    weights: ObjectiveWeights = eqx.field(default_factory=ObjectiveWeights)
     limits: LandingCriteria = LandingCriteria()
     widths: SmoothingWidths = SmoothingWidths()
     conditions: dict | None = None

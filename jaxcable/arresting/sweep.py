@@ -408,6 +408,27 @@ def qmc_case_fn(scenario: str = "I", phase: str = "passive", fidelity: str = "ri
     return case_fn_for(phase, fidelity, seed=int(seed), **case_kwargs)
 
 
+def default_batch_size(fidelity: str, devices=None) -> int:
+    """Cases per compiled call of a sweep at ``fidelity`` on ``devices`` (default: the local ones).
+
+    * rigid: 32 (on one CPU device 8-32 cases ran 3.5-5x the cases per second of one case,
+      docs/sweeps.md);
+    * ale, full on a CPU: 1 per device. Measured with ``jaxcable sweep --phase full --fidelity
+      full --n 4`` (scenario I, 2 s after capture, compiled programs read from the cache; 2-core
+      Intel Xeon, JAX 0.10.2, float64; the whole command): one device, batches of 1: 309 s; one
+      device, batches of 4: 356 s; two devices (``--cpu-devices 2``), 1 case each: 225 s; two
+      devices, 2 cases each: 382 s. A vmapped batch steps until its slowest case ends, and one
+      device's batch already keeps part of the second core busy;
+    * ale, full on a GPU: 24 per device (one H200 ran batches of 22 and 25 two-phase cases at 4.5 s
+      a case, docs/benchmarks.md)."""
+    check_choice("fidelity", fidelity, SWEEP_FIDELITIES)
+    devices = jax.local_devices() if devices is None else list(devices)
+    if fidelity == "rigid":
+        return 32
+    per_device = 1 if devices[0].platform == "cpu" else 24
+    return per_device * len(devices)
+
+
 def run_qmc_sweep(
     scenario: str = "I",
     n: int = 100,
@@ -416,7 +437,7 @@ def run_qmc_sweep(
     fidelity: str = "rigid",
     out="sweep.csv",
     seed: int = 0,
-    batch_size: int = 32,
+    batch_size: int | str = "auto",
     process_index: int = 0,
     process_count: int = 1,
     devices=None,
@@ -428,7 +449,11 @@ def run_qmc_sweep(
     process's share of them (:func:`process_indices`) written to ``out``. Returns the columns.
 
     The sidecar identity holds scenario, phase, seed, process slice and the case function; ``n`` may
-    grow on resume (the Halton prefix property keeps the earlier cases), not shrink."""
+    grow on resume (the Halton prefix property keeps the earlier cases), not shrink.
+
+    ``batch_size``: cases per compiled call, or ``"auto"`` (:func:`default_batch_size`)."""
+    if batch_size == "auto":
+        batch_size = default_batch_size(fidelity, devices)
     case_fn = qmc_case_fn(scenario, phase, fidelity, seed, **case_kwargs)
     samples = halton_samples(n, scenario, phase, seed)
     identity = dict(

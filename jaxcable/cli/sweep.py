@@ -19,7 +19,7 @@ from jaxcable.arresting.sweep import SWEEP_FIDELITIES, qmc_case_fn, run_qmc_swee
 from jaxcable.arresting.sweep_plots import plot_histories, plot_landing_plane, plot_tracking
 from jaxcable.arresting.uncertainty import PHASES, SCENARIOS, halton_samples, scenario_settings
 from jaxcable.cli.report import Report, cable_damping, emit, positive
-from jaxcable.core.config import enable_x64
+from jaxcable.core.config import enable_x64, use_cpu_devices
 from jaxcable.core.simulate import SOLVERS
 from jaxcable.studies.sweep import run_histories
 
@@ -41,6 +41,15 @@ def positive_int(flag: str):
     return parse
 
 
+def auto_or_positive_int(flag: str):
+    """Argument type: ``auto`` or an integer > 0, refused naming ``flag`` (exit status 2)."""
+
+    def parse(text: str):
+        return "auto" if text == "auto" else positive_int(flag)(text)
+
+    return parse
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The flags of ``jaxcable sweep``."""
     p = parser
@@ -55,7 +64,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--out", default="sweep.csv", help="CSV of one row per case; resumed if it exists (default sweep.csv)")
     p.add_argument("--seed", type=int, default=0, help="Halton scrambling seed (default 0)")
-    p.add_argument("--batch-size", type=positive_int("--batch-size"), default=32, help="cases per compiled call (default 32)")
+    p.add_argument(
+        "--batch-size",
+        type=auto_or_positive_int("--batch-size"),
+        default="auto",
+        help="cases per compiled call (default auto: 32 at the rigid level; at ale and full 1 per device on a CPU, 24 on a GPU)",
+    )
     p.add_argument("--t-end", type=positive("--t-end"), default=2.0, help="time simulated after capture [s] (default 2)")
     p.add_argument("--solver", choices=sorted(SOLVERS), default=None, help="diffrax solver (default per level)")
     p.add_argument("--rtol", type=positive("--rtol"), default=None, help="relative = absolute tolerance (default per level)")
@@ -76,6 +90,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="HOST:PORT",
         help="with --distributed off a managed cluster: the coordinator address (with --process-index/--process-count)",
     )
+    p.add_argument(
+        "--cpu-devices",
+        type=auto_or_positive_int("--cpu-devices"),
+        default="auto",
+        help="on a CPU host: JAX devices to split the cases of each batch over, one per core (default auto: one per "
+        "core this process may use; 1: one device, one core). Ignored when XLA_FLAGS sets a device count",
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--json", action="store_true", help="print one JSON object (the summary)")
 
@@ -87,8 +108,8 @@ def _start_distributed(args) -> None:
         else:
             jax.distributed.initialize()
     except RuntimeError as err:
-        # jax.distributed must start before JAX creates its backend; an import that builds an
-        # array at import time (a default argument, a module constant) already did.
+        # jax.distributed must start before JAX creates its backends: importing jaxcable does not
+        # (tests/test_cpu_devices.py), a JAX operation run earlier in the same process does.
         raise ValueError(
             f"jax.distributed.initialize() failed: {err}\n"
             "Run each host with --process-index I --process-count N instead (the same slices, "
@@ -99,6 +120,8 @@ def _start_distributed(args) -> None:
 def run(args: argparse.Namespace) -> Report:
     """Run (or resume) the sweep of ``args``: the summary (data), its markdown (text); ``ok`` False
     when some case failed numerically."""
+    # before the first JAX operation: the CPU's devices are fixed when JAX starts its backends
+    use_cpu_devices(getattr(args, "cpu_devices", "auto"))
     enable_x64()
     if args.distributed:
         _start_distributed(args)
@@ -135,6 +158,7 @@ def run(args: argparse.Namespace) -> Report:
         out=out,
         process_index=p_index,
         process_count=p_count,
+        devices=len(jax.local_devices()),
     )
     summary["wind_applied"] = True
     title = f"scenario {args.scenario}, {args.phase} phase, fidelity {args.fidelity}"

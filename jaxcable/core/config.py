@@ -77,3 +77,35 @@ def enable_compilation_cache(path: str | os.PathLike | None = None) -> Path | No
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
     jax.config.update("jax_persistent_cache_min_entry_size_bytes", -1)
     return folder
+
+
+def available_cores() -> int:
+    """The CPU cores this process may run on (its affinity mask where the OS has one)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover (macOS, Windows)
+        return os.cpu_count() or 1
+
+
+def use_cpu_devices(count: int | str = "auto") -> int | None:
+    """Split the host CPU into ``count`` JAX devices (``"auto"``: one per core this process may use,
+    :func:`available_cores`), so that work sharded over the local devices (a sweep's chunks,
+    :mod:`jaxcable.studies.sharding`) runs on every core: XLA runs one CPU device's program on
+    one core.
+
+    Takes effect only before JAX starts its backends (the first JAX operation of the process;
+    importing jaxcable does not start them). Returns the count set, or ``None`` when JAX had started
+    already or ``XLA_FLAGS`` names a device count itself (both leave the devices as they are).
+    On a GPU host the GPUs stay the default devices; the count applies to the CPU backend only."""
+    from jax._src import xla_bridge
+
+    if count == "auto":
+        count = available_cores()
+    if isinstance(count, bool) or not isinstance(count, int) or count < 1:
+        raise ValueError(f"count must be a positive integer or 'auto', got {count!r}")
+    if "xla_force_host_platform_device_count" in os.environ.get("XLA_FLAGS", ""):
+        return None
+    if xla_bridge.backends_are_initialized():
+        return None
+    jax.config.update("jax_num_cpu_devices", count)
+    return count

@@ -165,8 +165,8 @@ class ThrowDesignProblem(eqx.Module):
     space: DesignSpace
     scene: LineThrowingScene
     """base scene: its rope's density and diameter are the reference of the d^2 scaling"""
-    limits: ThrowLimits = ThrowLimits()
-    weights: ThrowWeights = ThrowWeights()
+    limits: ThrowLimits = eqx.field(default_factory=ThrowLimits)
+    weights: ThrowWeights = eqx.field(default_factory=ThrowWeights)
     t_max_s: float = eqx.field(static=True, default=40.0)
     """end of the simulation if the rocket has not landed [s]"""
     solver: str = eqx.field(static=True, default="tsit5")
