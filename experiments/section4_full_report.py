@@ -5,7 +5,7 @@ The 3 x 100 two-phase cases at the full level take hours on a 2-core CPU (about 
 compiled), so they run as resumable sweeps, one CSV a scenario::
 
     jaxcable sweep --phase full --fidelity full --cable-damping calibrated --scenario I --n 100 \\
-        --batch-size 4 --out experiments/results/sweep_two_phase_full_calibrated_I_n100.csv
+        --out experiments/results/sweep_two_phase_full_calibrated_I_n100.csv
 
 (rerun the same command to go on after an interruption). This script reads the CSVs that exist and
 writes, for the cases done so far, the summary in the form of Tables 5-7 and 9 (``jaxcable sweep``'s
