@@ -63,16 +63,29 @@ def test_bad_device_counts_are_refused(bad):
 
 def test_sweep_command_runs_on_the_devices_it_asks_for(tmp_path):
     # rigid level, 3 cases in batches of 2 over 2 devices (the last batch padded), 0.3 s after capture
+    # the command line of its own process (main() called from Python leaves the devices alone)
     code = (
         "import sys\nfrom jaxcable.cli import main\n"
-        f"sys.exit(main(['--no-cache', 'sweep', '--n', '3', '--batch-size', '2', '--t-end', '0.3', '--cpu-devices', '2', "
-        f"'--out', {str(tmp_path / 'a.csv')!r}, '--json']))\n"
+        f"sys.argv = ['jaxcable', '--no-cache', 'sweep', '--n', '3', '--batch-size', '2', '--t-end', '0.3', "
+        f"'--cpu-devices', '2', '--out', {str(tmp_path / 'a.csv')!r}, '--json']\n"
+        "sys.exit(main())\n"
     )
     out = _python(code)
     assert out.returncode == 0, out.stderr
     summary = json.loads(out.stdout)
     assert summary["devices"] == 2
     assert summary["n_cases"] == 3
+
+
+def test_sweep_called_from_python_keeps_the_process_devices(tmp_path):
+    code = (
+        "from jaxcable.cli import main\n"
+        f"main(['--no-cache', 'sweep', '--n', '1', '--batch-size', '1', '--t-end', '0.2', '--cpu-devices', '2', "
+        f"'--out', {str(tmp_path / 'b.csv')!r}, '--json'])\n"
+    )
+    out = _python(code)
+    assert out.returncode == 0, out.stderr
+    assert json.loads(out.stdout)["devices"] == 1
 
 
 def test_default_batch_size_per_level_and_device():

@@ -56,6 +56,9 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Run one command; returns its exit status (0 done, 1 the solver failed, 2 bad input)."""
     args = build_parser().parse_args(sys.argv[1:] if argv is None else list(argv))
+    if argv is None and args.command == "sweep":
+        # the process's own command line: its CPU devices are set before JAX starts
+        sweep.configure_devices(args)
     if not (args.no_cache or cache_disabled_by_env()):
         enable_compilation_cache()
     return emit(args.command, args.run, args)

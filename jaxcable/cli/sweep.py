@@ -23,7 +23,7 @@ from jaxcable.core.config import enable_x64, use_cpu_devices
 from jaxcable.core.simulate import SOLVERS
 from jaxcable.studies.sweep import run_histories
 
-__all__ = ["DESCRIPTION", "HELP", "add_arguments", "run", "sweep_main"]
+__all__ = ["DESCRIPTION", "HELP", "add_arguments", "configure_devices", "run", "sweep_main"]
 
 HELP = "quasi-Monte Carlo robustness sweep"
 DESCRIPTION = __doc__.split("\n\n")[0]
@@ -95,7 +95,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=auto_or_positive_int("--cpu-devices"),
         default="auto",
         help="on a CPU host: JAX devices to split the cases of each batch over, one per core (default auto: one per "
-        "core this process may use; 1: one device, one core). Ignored when XLA_FLAGS sets a device count",
+        "core this process may use; 1: one device, one core). Ignored when XLA_FLAGS sets a device count and when "
+        "jaxcable.cli.main(argv) is called from Python (there: jaxcable.core.config.use_cpu_devices)",
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--json", action="store_true", help="print one JSON object (the summary)")
@@ -120,8 +121,6 @@ def _start_distributed(args) -> None:
 def run(args: argparse.Namespace) -> Report:
     """Run (or resume) the sweep of ``args``: the summary (data), its markdown (text); ``ok`` False
     when some case failed numerically."""
-    # before the first JAX operation: the CPU's devices are fixed when JAX starts its backends
-    use_cpu_devices(getattr(args, "cpu_devices", "auto"))
     enable_x64()
     if args.distributed:
         _start_distributed(args)
@@ -182,4 +181,14 @@ def sweep_main(argv: list[str] | None = None) -> int:
     """``jaxcable sweep`` on its own: parse ``argv``, run, print (exit status as :func:`run`'s report)."""
     parser = argparse.ArgumentParser(prog="jaxcable sweep", description=DESCRIPTION)
     add_arguments(parser)
-    return emit("sweep", run, parser.parse_args(argv))
+    args = parser.parse_args(argv)
+    if argv is None:
+        configure_devices(args)
+    return emit("sweep", run, args)
+
+
+def configure_devices(args: argparse.Namespace) -> None:
+    """The process's CPU devices from ``--cpu-devices`` (:func:`jaxcable.core.config.use_cpu_devices`).
+    Called by a command line of its own process (``jaxcable sweep``) before the first JAX operation;
+    not by ``main(argv)`` called from Python, whose process may have chosen its devices already."""
+    use_cpu_devices(args.cpu_devices)
