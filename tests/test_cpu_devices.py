@@ -77,15 +77,22 @@ def test_sweep_command_runs_on_the_devices_it_asks_for(tmp_path):
     assert summary["n_cases"] == 3
 
 
-def test_sweep_called_from_python_keeps_the_process_devices(tmp_path):
-    code = (
-        "from jaxcable.cli import main\n"
-        f"main(['--no-cache', 'sweep', '--n', '1', '--batch-size', '1', '--t-end', '0.2', '--cpu-devices', '2', "
-        f"'--out', {str(tmp_path / 'b.csv')!r}, '--json'])\n"
-    )
-    out = _python(code)
-    assert out.returncode == 0, out.stderr
-    assert json.loads(out.stdout)["devices"] == 1
+def test_only_a_command_line_of_its_own_process_sets_the_devices(monkeypatch):
+    # the wiring, in this process (whose JAX has started): main(argv) from Python leaves the devices
+    # to the caller, main() on the process's own command line configures them
+    from jaxcable import cli
+    from jaxcable.cli import sweep
+    from jaxcable.cli.report import Report
+
+    calls = []
+    monkeypatch.setattr(sweep, "configure_devices", lambda args: calls.append(args.cpu_devices))
+    monkeypatch.setattr(sweep, "run", lambda args: Report({}, ""))
+    # main() builds its parser at each call, which binds the stub as the command's work
+    assert cli.main(["sweep", "--cpu-devices", "2", "--json"]) == 0
+    assert calls == []
+    monkeypatch.setattr(sys, "argv", ["jaxcable", "sweep", "--cpu-devices", "2", "--json"])
+    assert cli.main() == 0
+    assert calls == [2]
 
 
 def test_default_batch_size_per_level_and_device():
