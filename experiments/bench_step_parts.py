@@ -1,0 +1,121 @@
+"""Where a W-method step's time goes at the ale and full levels: the cost per step of each part of
+:class:`jaxcable.core.rosenbrock.RosenbrockW` inside diffrax's loop, by taking parts away.
+
+From the design case's state at 0.05 s after capture (hooks in the cables, beta = 1e-5 s), each
+variant takes ``--steps`` constant steps of ``--dt`` seconds in one compiled ``diffeqsolve`` (no
+saves but the last, no event, no error control, so every variant does the same number of steps and
+the difference between two variants is the cost of what one adds):
+
+* ``bosh3``: the explicit default (3 vector-field evaluations per step, first same as last);
+* ``rosw, J = 0``: the W-method's 4 evaluations per step and its loop, every solve ``x = b / beta``;
+* ``rosw, no coupling``: the cables' blocks and hinges relinearised every step, factored, 4
+  structured solves, the cable rows' columns on the rocket left out;
+* ``rosw``: the same with the hook coupling (what ``simulate(solver="rosw")`` runs), the
+  linearisation every step (``jacobian_every=1``, which batched sweeps do) and every 2 steps
+  (the default for single runs).
+
+Variants run in rounds (:func:`_report.time_rounds`, the best of ``--repeats``), so a change of
+the machine's load hits each alike. Writes ``bench_step_parts<tag>.json/.md``. Usage:
+
+    python experiments/bench_step_parts.py                 # full level, ~4 min on 2 cores
+    python experiments/bench_step_parts.py --level ale --tag _ale
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import _report
+
+T_START_S = 0.05
+"""Time after capture [s] of the state the steps start from (the hooks have picked the cables up)."""
+
+
+def build(level, dt, steps):
+    import diffrax
+    import jax
+
+    from jaxcable.arresting.passive import passive_landing_scene
+    from jaxcable.arresting.stiff import ExplicitLinearisation
+    from jaxcable.core.rosenbrock import RosenbrockW
+    from jaxcable.core.simulate import make_solver, simulate
+
+    scene = passive_landing_scene(level, t_end_s=T_START_S, cable_damping_s=1e-5)
+    y0 = simulate(scene, T_START_S, solver="rosw", rtol=1e-5, atol=1e-5).final_state
+    term = diffrax.ODETerm(lambda t, y, args: scene.vector_field(t, y))
+
+    def no_coupling(t, y):
+        return scene.stiff_linearisation(t, y, hook_coupling=False)
+
+    solvers = {
+        "bosh3": make_solver("bosh3"),
+        "rosw, J = 0": RosenbrockW(linearise=lambda t, y: ExplicitLinearisation(), jacobian_every=1),
+        "rosw, no coupling, J every step": RosenbrockW(linearise=no_coupling, jacobian_every=1),
+        "rosw, J every step": RosenbrockW(linearise=scene.stiff_linearisation, jacobian_every=1),
+        "rosw, J every 2 steps": RosenbrockW(linearise=scene.stiff_linearisation, jacobian_every=2),
+    }
+
+    def call(solver):
+        @jax.jit
+        def run(y):
+            sol = diffrax.diffeqsolve(
+                term, solver, T_START_S, T_START_S + steps * dt, dt, y, saveat=diffrax.SaveAt(t1=True),
+                stepsize_controller=diffrax.ConstantStepSize(), max_steps=steps + 10, throw=False,
+            )  # fmt: skip
+            return sol.ys
+
+        return lambda: run(y0)
+
+    return {name: call(s) for name, s in solvers.items()}
+
+
+def write_md(data, path):
+    lines = [
+        f"# Cost per step of the W-method's parts ({data['level']} level)",
+        "",
+        *_report.header(data),
+        "",
+        (
+            f"Design case, from its state {T_START_S} s after capture, beta = 1e-5 s, {data['steps']} constant "
+            f"steps of {data['dt_s']:g} s in one compiled `diffeqsolve` (no saves, no event), best of "
+            f"{data['repeats']} rounds:"
+        ),
+        "",
+        "| variant | per step | against bosh3 | added by this row |",
+        "|---|---:|---:|---:|",
+    ]
+    rows = data["per_step_us"]
+    base = rows["bosh3"]
+    prev = None
+    for name, us in rows.items():
+        added = "" if prev is None else f"{us - prev:+.0f} us"
+        lines.append(f"| {name} | {us:.0f} us | {us / base:.2f} | {added} |")
+        prev = us
+    return _report.write_lines(path, lines)
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--level", choices=("ale", "full"), default="full")
+    p.add_argument("--steps", type=int, default=300)
+    p.add_argument("--dt", type=float, default=2e-6, help="constant step [s] (below every solver's stability limit)")
+    p.add_argument("--repeats", type=int, default=5)
+    p.add_argument("--tag", default="")
+    p.add_argument("--out", default=None)
+    args = p.parse_args()
+
+    from jaxcable.core.config import enable_x64
+
+    enable_x64()
+    data = _report.start(level=args.level, steps=args.steps, dt_s=args.dt, repeats=args.repeats)
+    calls = build(args.level, args.dt, args.steps)
+    _, first, best = _report.time_rounds(calls, args.repeats)
+    data["per_step_us"] = {k: 1e6 * best[k] / args.steps for k in calls}
+    data["first_call_s"] = first
+    for k, us in data["per_step_us"].items():
+        print(f"{k:34s} {us:8.0f} us/step")
+    _report.finish(data, _report.output_dir(args.out), "bench_step_parts" + args.tag, write_md)
+
+
+if __name__ == "__main__":
+    main()
