@@ -31,7 +31,8 @@ error, the relative error of the three against the reference, and the load avera
 that of a second identical call (compiled) when the first took under ``SECOND_CALL_BELOW_S``, or
 when the first was the first call of its compiled program (then the compile is in it); otherwise
 the first (its program compiled by an earlier beta). ``--mesh`` adds the cost per step against
-the number of span elements (16, 32, 64) at the ale level. Writes ``bench_stiff<tag>.json/.md``.
+the number of span elements (16, 32, 64) at the ale level. The cases' mesh: ``--span-elements``
+(default 16, the mesh of the earlier records; the scenes' default is 32). Writes ``bench_stiff<tag>.json/.md``.
 Usage:
 
     python experiments/bench_stiff.py --mesh --levels ale --cases design --betas 1e-5 1e-4 1e-3 1e-2 \\
@@ -39,6 +40,9 @@ Usage:
     python experiments/bench_stiff.py --levels full --cases design --betas 1e-5 1e-3 1e-2 \\
         --solvers rosw bosh3 --ref-rtol 1e-6 --tag _full
     python experiments/bench_stiff.py --levels ale --betas 0 1e-4 1e-3 1e-2 --tag _solvers
+    python experiments/bench_stiff.py --levels full --cases design --betas 1e-5 6.3e-3 --solvers rosw bosh3 \
+        --t-end 1.0 --ref-rtol 1e-6 --span-elements 32 --max-steps 100000 --tag _full_1s_32
+                                           # the whole design case on the scenes' default mesh, ~25 min
     python experiments/bench_stiff.py --quick          # ale, design, beta 1e-5 and 1e-2, 0.05 s
     python experiments/bench_stiff.py --levels ale --cases design --betas 1e-5 1e-2 --solvers rosw bosh3 \
         --float32 --ref-json experiments/results/bench_stiff_coupling.json --tag _float32
@@ -152,7 +156,7 @@ def _time_cell(c, t_end):
 def write_md(data, path):
     lines = ["# Stiff cables: the W-method against Bosh3, Tsit5 and Kvaerno5", "", *_report.header(data), ""]
     lines += [
-        f"First {data['t_end_s']} s after capture. Cases: "
+        f"First {data['t_end_s']} s after capture, {data.get('span_elements', 16)} elements per arresting span. Cases: "
         + "; ".join(f"`{k}`, the {v}" for k, v in CASES.items() if k in data.get("case_names", CASES))
         + f". Error: largest relative error of z_max, a_max, sigma_max (the CFC 60 criteria) against the "
         f"reference (rosw at {data.get('ref_rtol', 1e-7):g}). Time: second identical call (compiled); "
@@ -231,6 +235,9 @@ def main():
                    help="step budget of the explicit solvers and rosw (Bosh3 takes 407k at beta 1e-2, ale)")  # fmt: skip
     p.add_argument("--implicit-max-steps", type=int, default=200,
                    help="step budget of Kvaerno5 (0.3-0.8 s per step on the ale level, 2 cores)")  # fmt: skip
+    p.add_argument("--span-elements", type=int, default=16,
+                   help="elements of each arresting span (16: the mesh of the results recorded before the scenes' "
+                        "default moved to 32)")  # fmt: skip
     p.add_argument("--mesh", action="store_true", help="also the cost per step at 16, 32, 64 span elements")
     p.add_argument("--quick", action="store_true")
     p.add_argument("--ref-rtol", type=float, default=1e-7, help="tolerance of the rosw reference")
@@ -260,12 +267,12 @@ def main():
         a.levels, a.cases, a.betas, a.t_end = ["ale"], ["design"], [1e-5, 1e-2], 0.05
     stem = STEM + a.tag
     out = _report.output_dir(a.out, a.quick, stem)
-    data = _report.start(t_end_s=a.t_end, ref_rtol=a.ref_rtol, case_names=a.cases, cases=[], mesh=[])
+    data = _report.start(t_end_s=a.t_end, ref_rtol=a.ref_rtol, case_names=a.cases, span_elements=a.span_elements, cases=[], mesh=[])
     rosw = RosenbrockW()
     for case in a.cases:
         for level in a.levels:
             for beta in a.betas:
-                scene = build_scene(case, level, beta, a.t_end)
+                scene = build_scene(case, level, beta, a.t_end, n_span=a.span_elements)
                 if a.ref_json:
                     ref = refs[(case, level, beta)]
                     data["ref_json"] = a.ref_json

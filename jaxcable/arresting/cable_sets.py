@@ -287,6 +287,13 @@ class AleCables(eqx.Module):
     the M of largest penetration (:func:`_contact_all_pairs`; exact while at most M pairs touch,
     16 on the design case: ``contact_pairs_touching`` in the probes counts them). ``None``: every
     pair. Values never depend on it."""
+    stiff_contact_pairs: int | None = eqx.field(static=True, default=16)
+    """Number of pairs (the deepest, as above) whose contact enters the W-method's linearisation
+    (:meth:`stiff_blocks`, the hinge rows and the hooks' coupling of
+    :meth:`jaxcable.arresting.passive.PassiveLandingScene.stiff_linearisation`); ``None``: those of
+    ``contact_tangent_pairs``. Its ``J`` is then exact while at most this many pairs touch (8-16
+    on the design case) and an approximation beyond, which a W-method allows (it keeps its order
+    with any ``J``). Values and derivatives of a run never depend on it, only its steps."""
     wind: eqx.Module | None = None
     """A :class:`jaxcable.components.wind.WindField` loading the arresting spans (eq 45), or None
     (still air). Only the spans between the sliders are exposed: the tower runs and the block strands
@@ -313,9 +320,10 @@ class AleCables(eqx.Module):
             raise ValueError(f"AleCables.hook_contact must be 'capsule' or 'node', got {self.hook_contact!r}")
         if self.hook_contact == "node" and self.throat_w is None:
             raise ValueError("AleCables: hook_contact='node' needs the throat weights (throat_w)")
-        m = self.contact_tangent_pairs
-        if m is not None and (isinstance(m, bool) or not isinstance(m, (int, np.integer)) or m < 1):
-            raise ValueError(f"AleCables.contact_tangent_pairs must be None or a positive integer, got {m!r}")
+        for name in ("contact_tangent_pairs", "stiff_contact_pairs"):
+            m = getattr(self, name)
+            if m is not None and (isinstance(m, bool) or not isinstance(m, (int, np.integer)) or m < 1):
+                raise ValueError(f"AleCables.{name} must be None or a positive integer, got {m!r}")
 
     def _span_drag(self, kin, t):
         """Cross-flow drag on the arresting span's elements: (element_forces (n_el, 2, 3), power [W])."""
@@ -594,10 +602,11 @@ class AleCables(eqx.Module):
         )[1]  # fmt: skip
         return _hook_point_forces(f_caps)
 
-    def contact_pairs_picked(self, kin, hooks: HookPoints):
+    def contact_pairs_picked(self, kin, hooks: HookPoints, stiff: bool = False):
         """Flat indices of the pairs whose contact derivative is taken (the ``contact_tangent_pairs``
         of largest penetration, as :func:`_contact_all_pairs`'s JVP picks them; all pairs when it
-        is None), for :meth:`contact_forces_jvp`; none with ``hook_contact="node"``."""
+        is None), for :meth:`contact_forces_jvp`; none with ``hook_contact="node"``. ``stiff``:
+        the ``stiff_contact_pairs`` deepest instead (the W-method's linearisation)."""
         if self.hook_contact == "node":
             return jnp.zeros((0,), jnp.int32)
         caps_p, caps_v = _capsules(hooks)
@@ -605,6 +614,8 @@ class AleCables(eqx.Module):
             self.contact, self.hook_radius_m, self.cable_radius_m, caps_p, caps_v, *self._span_ends(kin)
         )[3]
         m = self.contact_tangent_pairs
+        if stiff and self.stiff_contact_pairs is not None:
+            m = self.stiff_contact_pairs if m is None else min(m, self.stiff_contact_pairs)
         if m is None or m >= penetration.shape[0]:
             return jnp.arange(penetration.shape[0])
         return _deepest_pairs(penetration, m)
@@ -733,8 +744,9 @@ class AleCables(eqx.Module):
         blocks summed from them over the affine map to the generalised coordinates
         (:meth:`CableSubsystem.assemble_stiff_blocks`): the element terms' stiff part in closed
         form (:meth:`CableSubsystem.element_row_jacobians`: elasticity, Rayleigh damping, weight;
-        not the moving material's inertia terms nor the air's drag), the contact from the pairs
-        its JVP picks (:meth:`contact_pairs_picked`), 16 tangents through each pair's element.
+        not the moving material's inertia terms nor the air's drag), the contact from the
+        ``stiff_contact_pairs`` deepest pairs (:meth:`contact_pairs_picked` with ``stiff=True``),
+        16 tangents through each pair's element.
         Before, 28 coloured JVPs of the whole :meth:`cable_forces` cost 2.3 ms per linearisation
         at the full level on the default mesh, about ten evaluations of the vector field; now
         0.6 ms (``docs/stiff_integrator.md``). ``kin``, ``picked``: the cables' kinematics and the
@@ -746,7 +758,7 @@ class AleCables(eqx.Module):
         lo, hi = self.span_slice
         J_z, J_zd = jax.vmap(lambda sub, k: sub.element_row_jacobians(k))(self.subsystems, kin)  # (4, n_el, 8, 8)
         if self.hook_contact == "capsule":
-            picked = self.contact_pairs_picked(kin, hooks) if picked is None else picked
+            picked = self.contact_pairs_picked(kin, hooks, stiff=True) if picked is None else picked
             C_z, C_zd = self._contact_element_jacobians(kin, hooks, picked)  # (4, n_span, 8, 8) each
             J_z = J_z.at[:, lo:hi].add(C_z)
             J_zd = J_zd.at[:, lo:hi].add(C_zd)

@@ -351,7 +351,7 @@ class PassiveLandingScene(AbstractScene):
         hooks = self.hooks(state.rocket)
         # the cables' kinematics and the contact pick, shared by the blocks, the hinge rows and the coupling
         kin = self.cables.kinematics(state.cables)
-        picked = self.cables.contact_pairs_picked(kin, hooks)
+        picked = self.cables.contact_pairs_picked(kin, hooks, stiff=True)
         blocks = self.cables.stiff_blocks(state.cables, hooks, t, kin=kin, picked=picked)
         hinge = self._hinge_jacobian(t, state, kin, picked) if state.rocket.hinge_rate.shape[0] else None
         coupling = HookCoupling.at(self.cables, self.rocket, state.cables, state.rocket, rows=_rocket_rows, kin=kin, picked=picked) if hook_coupling else None  # fmt: skip

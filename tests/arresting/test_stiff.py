@@ -99,6 +99,36 @@ def test_blocks_equal_the_dense_jacobian_of_the_cable_forces(mass_scale, rtol):
             np.testing.assert_allclose(np.asarray(blocks[zr])[c], rows_z, atol=rtol * np.abs(rows_z).max())
 
 
+def test_stiff_contact_pairs_are_exact_while_that_many_pairs_touch():
+    """The linearisation differentiates only the ``stiff_contact_pairs`` deepest hook-cable pairs
+    (:class:`jaxcable.arresting.cable_sets.AleCables`): its blocks equal those from every picked
+    pair while no more pairs touch than that, and lose contact stiffness when fewer are taken (so
+    the setting is live); a bad count is refused by name."""
+    import dataclasses
+
+    scene = _scene(beta=1e-3)
+    y = _moving_state(scene)
+    hooks = scene.hooks(y.rocket)
+    touching = int(scene.probe(0.0, y)["contact_pairs_touching"])
+    assert touching >= 2
+
+    def blocks(m):
+        cables = dataclasses.replace(scene.cables, stiff_contact_pairs=m)
+        return jax.jit(lambda y: cables.stiff_blocks(y.cables, hooks, 0.0))(y)
+
+    # short: 1 pair. Not touching - 1: on this state the hooks' tips touch, and the pairs of the
+    # barb capsule (which shares the tip) report the arm's penetration with zero force (measured:
+    # 3e-33 N against 49 N), so dropping the last touching pairs changes nothing
+    every, enough, short = blocks(None), blocks(touching), blocks(1)
+    for name in ("K_rr", "C_rr", "K_rz", "K_zr", "K_zz"):
+        for a, b in zip(jax.tree_util.tree_leaves(every[name]), jax.tree_util.tree_leaves(enough[name])):
+            np.testing.assert_allclose(np.asarray(b), np.asarray(a), rtol=0, atol=1e-12 * np.abs(np.asarray(a)).max())
+    diag_every, diag_short = np.asarray(every["K_rr"][1]), np.asarray(short["K_rr"][1])
+    assert np.abs(diag_short - diag_every).max() > 1e-3 * np.abs(diag_every).max()
+    with pytest.raises(ValueError, match="stiff_contact_pairs.*0"):
+        dataclasses.replace(scene.cables, stiff_contact_pairs=0)
+
+
 # h = 2e-3 s in the slow tier (each case 80-120 s on 2 cores; the same code path at another step);
 # the hooks as sliding nodes in the slow tier too (50 s; the default tier checks their bordered solve
 # against the dense LU, tests/arresting/test_hook_node.py)
