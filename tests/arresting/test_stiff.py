@@ -129,6 +129,30 @@ def test_stiff_contact_pairs_are_exact_while_that_many_pairs_touch():
         dataclasses.replace(scene.cables, stiff_contact_pairs=0)
 
 
+@pytest.mark.parametrize("touching", [0, 5, 16, 40, 700])
+def test_threshold_pick_is_the_deepest_pairs(touching):
+    """The linearisation's cheap pick (bisected threshold and ``jnp.nonzero``, not ``lax.top_k``)
+    against ``lax.top_k``: the same touching pairs while at most ``m`` touch; beyond, only pairs
+    of the ``m`` deepest, each once, and nearly ``m`` of them; the free slots hold a pair out of
+    contact."""
+    from jaxcable.arresting.cable_sets import _deepest_pairs_by_threshold
+
+    m, n = 16, 1024
+    rng = np.random.default_rng(touching)
+    depth = rng.uniform(1e-6, 1e-3, size=n)
+    depth[rng.permutation(n)[touching:]] *= -1.0  # exactly `touching` pairs with positive penetration
+    picked = np.asarray(_deepest_pairs_by_threshold(jnp.asarray(depth), m))
+    deepest = set(np.asarray(jax.lax.top_k(jnp.asarray(depth), m)[1]).tolist())
+    inside = [int(i) for i in picked if depth[i] > 0]
+    assert len(inside) == len(set(inside))
+    assert set(inside) <= deepest
+    if touching <= m:
+        assert set(inside) == {i for i in deepest if depth[i] > 0}
+    else:
+        assert len(inside) >= m - 2  # the bisection's resolution leaves out at most a near tie
+    assert all(depth[i] <= 0 for i in picked if int(i) not in inside)
+
+
 # h = 2e-3 s in the slow tier (each case 80-120 s on 2 cores; the same code path at another step);
 # the hooks as sliding nodes in the slow tier too (50 s; the default tier checks their bordered solve
 # against the dense LU, tests/arresting/test_hook_node.py)
