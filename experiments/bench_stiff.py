@@ -40,11 +40,11 @@ Usage:
     python experiments/bench_stiff.py --levels full --cases design --betas 1e-5 1e-3 1e-2 \\
         --solvers rosw bosh3 --ref-rtol 1e-6 --tag _full
     python experiments/bench_stiff.py --levels ale --betas 0 1e-4 1e-3 1e-2 --tag _solvers
-    python experiments/bench_stiff.py --levels full --cases design --betas 1e-5 6.3e-3 --solvers rosw bosh3 \
+    python experiments/bench_stiff.py --levels full --cases design --betas 1e-5 6.3e-3 --solvers rosw bosh3 \\
         --t-end 1.0 --ref-rtol 1e-6 --span-elements 32 --max-steps 100000 --tag _full_1s_32
                                            # the whole design case on the scenes' default mesh, ~25 min
     python experiments/bench_stiff.py --quick          # ale, design, beta 1e-5 and 1e-2, 0.05 s
-    python experiments/bench_stiff.py --levels ale --cases design --betas 1e-5 1e-2 --solvers rosw bosh3 \
+    python experiments/bench_stiff.py --levels ale --cases design --betas 1e-5 1e-2 --solvers rosw bosh3 \\
         --float32 --ref-json experiments/results/bench_stiff_coupling.json --tag _float32
                                            # float32 against an earlier float64 run's references
 """
