@@ -196,7 +196,8 @@ class HookCoupling(eqx.Module):
     kin: eqx.Module
     """The cables' kinematics at ``cable_state`` (:meth:`AleCables.kinematics`)."""
     picked: jax.Array
-    """The contact pairs whose derivative is taken (:meth:`AleCables.contact_pairs_picked`)."""
+    """The contact pairs whose derivative is taken (:meth:`AleCables.contact_pairs_picked` with
+    ``stiff=True``, as for the cables' blocks and the hinge rows of the same linearisation)."""
     rows: Callable = eqx.field(static=True)
     """``rows(state) -> the rocket's state`` within the scene's state."""
 
@@ -205,7 +206,7 @@ class HookCoupling(eqx.Module):
         """The coupling at one state, with the cables' kinematics (``kin``) and the contact pick
         (``picked``), each computed unless given."""
         kin = cables.kinematics(cable_state) if kin is None else kin
-        picked = cables.contact_pairs_picked(kin, _hook_points(rocket, rocket_state)) if picked is None else picked
+        picked = cables.contact_pairs_picked(kin, _hook_points(rocket, rocket_state), stiff=True) if picked is None else picked
         return cls(cables, rocket, cable_state, rocket_state, kin, picked, rows=rows)
 
     def forces_jvp(self, x_rocket):
