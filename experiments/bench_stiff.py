@@ -86,8 +86,13 @@ def _iv_a_capture():
 
 
 def build_scene(case, level, beta, t_end, n_span=16):
+    """The case's passive scene on ``n_span`` span elements, half of them fine, with the capsule
+    contact (the model of the records; the scenes' default is the hook as a sliding node)."""
     kwargs = _iv_a_capture() if case == "iv_a" else {}
-    return passive_landing_scene(level, t_end_s=t_end, cable_damping_s=beta, n_span_elements=n_span, **kwargs)
+    return passive_landing_scene(
+        level, t_end_s=t_end, cable_damping_s=beta, n_span_elements=n_span, n_fine=n_span // 2, hook_contact="capsule",
+        **kwargs,
+    )  # fmt: skip
 
 
 def _call(scene, level, t_end, solver, rtol, max_steps):

@@ -7,20 +7,20 @@ Two cases at the ``ale`` and ``full`` levels, at the calibrated cable damping
 * ``iva``: section IV.A's deviated case, scenario I: the tracking phase (rigid rocket, seed 0) to
   capture, then the passive phase from the captured state, ``--iva-t-end`` s.
 
-Variants, each against the level's default (the scenes' mesh, ``DEFAULT_SPAN_ELEMENTS`` = 32 span
-elements, ``DEFAULT_FINE_ELEMENTS`` = 16 of them fine; the contact law of
-``passive.scene_contact_law``, the level's solver settings, 1 ms saves):
+Variants, each against the level's default (the scenes' mesh, ``DEFAULT_SPAN_ELEMENTS`` = 64 span
+elements, ``DEFAULT_FINE_ELEMENTS`` = 32 of them fine, or ``--mesh``; the hook as a sliding node,
+or ``--hook-contact capsule``; the contact law of ``passive.scene_contact_law``, the level's solver
+settings, 1 ms saves):
 
 ==============  ==============================================================================
-``mesh_half``   every span element doubled (16 span elements, 8 fine: the default before 32)
-``mesh_x2``     every span element halved (64 span elements, 32 fine)
-``mesh_x4``     every span element quartered (128 span elements, 64 fine): the diagnostic of ``mesh_x2``
-``fine_x2``     the fine elements halved (48 span elements, 32 fine; the coarse ones unchanged)
-``fine_x4``     the fine elements quartered (80 span elements, 64 fine; the coarse ones unchanged)
+``mesh_half``   every span element doubled (half the span elements and the fine ones)
+``mesh_x2``     every span element halved (twice the span elements and the fine ones)
+``mesh_x4``     every span element quartered: the diagnostic of ``mesh_x2``
+``fine_x2``     the fine elements halved (the coarse ones unchanged)
+``fine_x4``     the fine elements quartered (the coarse ones unchanged)
 ``fine_wide``   the fine region widened from +-3 m to +-6 m around the hook at the same fine element
-                length (48 span elements, 32 fine): does the hook leave the fine region as the cable
-                slides over it?
-``fine_wide_x2`` +-6 m with the fine elements halved (80 span elements, 64 fine)
+                length: does the hook leave the fine region as the cable slides over it?
+``fine_wide_x2`` +-6 m with the fine elements halved
 ``contact_x2``  hook-cable contact stiffness k x 2 (the Hunt-Crossley factor c unchanged, so the
                 restitution of an impact is unchanged)
 ``contact_half`` k / 2
@@ -30,19 +30,24 @@ elements, ``DEFAULT_FINE_ELEMENTS`` = 16 of them fine; the contact law of
 ``save_4``      save spacing / 4 (0.25 ms; the criteria's CFC 60 filter runs on the saves)
 ==============  ==============================================================================
 
-``--hook-contact node`` runs the same with the hook as a sliding node (``AleCables``,
-``hook_contact="node"``; the contact variants then scale the ring, whose stiffness is the law's
-tangent stiffness at its design load); results ``convergence_landing_node.{json,md}``.
+The hook is a sliding node (``AleCables``, ``hook_contact="node"``, the scenes' default; the contact
+variants then scale the ring, whose stiffness is the law's tangent stiffness at its design load);
+results ``convergence_landing_node.{json,md}``. ``--hook-contact capsule`` runs the capsule contact
+instead; results ``convergence_landing.{json,md}`` (the record there: ``--mesh 32 16``, the
+default before the node).
 
 Goals: z_max within 1%, the criteria a_max and sigma_max (CFC 60) within 3% of the default.
 Writes ``convergence_landing.{json,md}`` after every run (a killed run resumes: rows already in the
-JSON for the same beta and default mesh are kept). ``convergence_landing_mesh16.{json,md}`` is the
-record of the same study with 16 span elements (8 fine) as the default. Usage::
+JSON for the same beta and default mesh are kept). ``convergence_landing_mesh16.{json,md}`` and
+``convergence_landing_mesh32_node.{json,md}`` are records of the same study with 16 span elements (8
+fine, capsule) and 32 (16 fine, node) as the default. Usage::
 
-    python experiments/convergence_landing.py --levels ale               # ~25 min on 2 cores
+    python experiments/convergence_landing.py --levels ale --variants default mesh_x2
+    python experiments/convergence_landing.py --levels full --cases iva --variants default mesh_x2  # ~10 min
     python experiments/convergence_landing.py --levels full --cases design
     python experiments/convergence_landing.py --quick                    # ale, design, 0.1 s, 2 variants
-    python experiments/convergence_landing.py --levels full --cases design --buffer 900 3.22e5 --tag _buffer_900
+    python experiments/convergence_landing.py --levels full --cases design --buffer 900 3.22e5 --tag _buffer_900 \\
+        --hook-contact capsule --mesh 32 16
 """
 
 from __future__ import annotations
@@ -60,14 +65,17 @@ from jaxcable.core.validation import check_finite, check_positive
 from jaxcable.arresting import calibration as C
 from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.landing import level_solver_settings, run_landing
-from jaxcable.arresting.passive import DEFAULT_FINE_ELEMENTS as N_FINE
+from jaxcable.arresting.passive import DEFAULT_FINE_ELEMENTS as SCENE_FINE
 from jaxcable.arresting.passive import DEFAULT_FINE_HALF_WIDTH_M as FINE_HALF_WIDTH_M
-from jaxcable.arresting.passive import DEFAULT_SPAN_ELEMENTS as N_SPAN
+from jaxcable.arresting.passive import DEFAULT_HOOK_CONTACT
+from jaxcable.arresting.passive import DEFAULT_SPAN_ELEMENTS as SCENE_SPAN
 from jaxcable.arresting.passive import SAVE_SPACING_S, scene_contact_law
 
 STEM = "convergence_landing"
 KEYS = ("z_max_m", "a_max_g", "sigma_max_mpa")
 GOALS = {"z_max_m": 0.01, "a_max_g": 0.03, "sigma_max_mpa": 0.03}
+N_SPAN, N_FINE = SCENE_SPAN, SCENE_FINE
+"""The study's default mesh (span elements, fine ones): the scenes' unless ``--mesh`` says otherwise."""
 VARIANTS = ("default", "mesh_half", "mesh_x2", "mesh_x4", "fine_x2", "fine_x4", "fine_wide", "fine_wide_x2", "contact_x2", "contact_half", "contact_c_x2", "contact_c_half", "rtol_10", "save_4")
 
 
@@ -79,7 +87,7 @@ def variant_kwargs(name, level, beta):
     law = scene_contact_law()
     solver, rtol, _, steps = level_solver_settings(level, beta)
     return {
-        "default": {},
+        "default": {} if (N_SPAN, N_FINE) == (SCENE_SPAN, SCENE_FINE) else {"n_span_elements": N_SPAN, "n_fine": N_FINE},
         "mesh_half": {"n_span_elements": N_SPAN // 2, "n_fine": N_FINE // 2},
         "mesh_x2": dict(n_span_elements=2 * N_SPAN, n_fine=2 * N_FINE),
         "mesh_x4": dict(n_span_elements=4 * N_SPAN, n_fine=4 * N_FINE),
@@ -104,7 +112,7 @@ def iva_passive_kwargs():
     return _passive_kwargs(scene, out, True)
 
 
-def one_run(case, level, variant, beta, t_end, iva_kwargs, buffer=None, hook_contact="capsule"):
+def one_run(case, level, variant, beta, t_end, iva_kwargs, buffer=None, hook_contact=DEFAULT_HOOK_CONTACT):
     kw = dict(cable_damping_s=beta, hook_contact=hook_contact, **variant_kwargs(variant, level, beta))
     if case == "iva":
         kw.update(iva_kwargs)
@@ -173,9 +181,15 @@ def main():
     p.add_argument("--buffer", nargs=2, type=float, metavar=("M_W_KG", "F_F_N"),
                    help="the design case with this counterweight mass [kg] and brake force [N] instead of Table 1's")
     p.add_argument("--tag", default="", help="suffix of the results' file names (e.g. _buffer_900)")
-    p.add_argument("--hook-contact", choices=["capsule", "node"], default="capsule",
-                   help="the ALE cables' hook model (node: the hook as a sliding node; results tagged _node)")
+    p.add_argument("--hook-contact", choices=["capsule", "node"], default=DEFAULT_HOOK_CONTACT,
+                   help="the ALE cables' hook model (node, the default: the hook as a sliding node; results tagged _node)")
+    p.add_argument("--mesh", nargs=2, type=int, metavar=("SPAN", "FINE"),
+                   help="the study's default mesh: span elements and fine ones (default: the scenes')")
     args = p.parse_args()
+    global N_SPAN, N_FINE
+    if args.mesh is not None:
+        check_positive("--mesh", np.asarray(args.mesh))
+        N_SPAN, N_FINE = args.mesh
     enable_x64()
     stem = STEM + args.tag + ("_node" if args.hook_contact == "node" else "")
     buffer = None

@@ -38,8 +38,8 @@ import numpy as np
 from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.landing import run_landing
 from jaxcable.arresting.passive import DEFAULT_FINE_ELEMENTS as N_FINE
+from jaxcable.arresting.passive import DEFAULT_HOOK_CONTACT, LandingCriteria
 from jaxcable.arresting.passive import DEFAULT_SPAN_ELEMENTS as N_SPAN
-from jaxcable.arresting.passive import LandingCriteria
 from jaxcable.core.config import enable_x64
 from jaxcable.core.validation import check_positive
 
@@ -79,7 +79,7 @@ def write_md(data, path, stem=STEM):
         (
             f"{where}, {data['t_end_s']:g} s, "
             + (f"{data['mesh'][0]} span elements ({data['mesh'][1]} fine) at the ale and full levels, "
-               if data.get("mesh", [N_SPAN, N_FINE]) != [N_SPAN, N_FINE] else "each level's default mesh, ")
+               if data.get("mesh") else "each level's default mesh of the time, ")
             + "each level's solver and calibrated cable damping"
             + (", the hook as a sliding node" if data.get("hook_contact", "capsule") == "node" else "")
             + (f", a shaped brake (factors {', '.join(f'{f:g}' for f in data['brake_profile'])} of F_f over the stroke)"
@@ -155,8 +155,9 @@ def main():
     p.add_argument("--batch-n", type=int, default=16, help="captures in the design batch (default 16)")
     p.add_argument("--brake-profile", nargs="+", type=float, default=None,
                    help="a shaped brake: factors of F_f at equally spaced knots over the stroke (BufferDevice.brake_profile)")
-    p.add_argument("--hook-contact", default="capsule", choices=["capsule", "node"],
-                   help="hook-cable contact model at the ale and full levels (default capsule)")
+    p.add_argument("--hook-contact", default=DEFAULT_HOOK_CONTACT, choices=["capsule", "node"],
+                   help=f"hook-cable contact model at the ale and full levels (default {DEFAULT_HOOK_CONTACT}; "
+                        "the records before the node became the default: capsule, 32 span elements, 16 fine)")
     args = p.parse_args()
     stem = STEM + args.tag
     if args.replot:
@@ -172,10 +173,7 @@ def main():
     crit = LandingCriteria()
     check_positive("--span-elements", args.span_elements)
     check_positive("--fine-elements", args.fine_elements)
-    scene_options = {} if (args.span_elements, args.fine_elements) == (N_SPAN, N_FINE) else {
-        "n_span_elements": args.span_elements, "n_fine": args.fine_elements}
-    if args.hook_contact != "capsule":
-        scene_options["hook_contact"] = args.hook_contact
+    scene_options = {"n_span_elements": args.span_elements, "n_fine": args.fine_elements, "hook_contact": args.hook_contact}
     data = _report.start(
         t_end_s=args.t_end, levels=args.levels, rows=[], mesh=[args.span_elements, args.fine_elements],
         criteria={"z_max_m": float(crit.z_max_m), "a_max_g": float(crit.a_max_g), "sigma_max_mpa": float(crit.sigma_max_mpa)},

@@ -27,7 +27,7 @@ def mid_landing():
     jaxcable.enable_x64()
     # the lightly damped cable on 16 span elements (the pair counts below are this mesh's), explicit
     # Bosh3: the contact derivative is under test here, not the scenes' calibrated, stiff default
-    base = passive_landing_scene("ale", t_end_s=0.3, cable_damping_s=LIGHT_CABLE_DAMPING_S, n_span_elements=16, n_fine=8)
+    base = passive_landing_scene("ale", t_end_s=0.3, cable_damping_s=LIGHT_CABLE_DAMPING_S, n_span_elements=16, n_fine=8, hook_contact="capsule")
     y = simulate(base, T_STATE, solver="bosh3", rtol=1e-4, atol=1e-4, max_steps=100_000).final_state
     direction = jax.tree_util.tree_map(lambda x: jax.random.normal(jax.random.PRNGKey(3), x.shape), y)
     return base, y, direction

@@ -76,6 +76,9 @@ class PassiveBenchCase(AbstractBenchCase):
     cable_damping_s: float = eqx.field(static=True, default=LIGHT_CABLE_DAMPING_S)
     """Cables' Rayleigh damping beta [s] (levels ``ale``/``full``; default the light 1e-5 s, at which
     the explicit solvers the benchmark compares can run: the scenes' calibrated default is stiff)."""
+    hook_contact: str = eqx.field(static=True, default="capsule")
+    """How a hook holds its cable (levels ``ale``/``full``): the benchmark's solver comparisons and
+    records are the capsule contact's (the scenes' default is the hook as a sliding node)."""
 
     scene: ClassVar[str] = "passive"
     levels: ClassVar[tuple[str, ...]] = ("1dof", "rigid", "ale", "full")
@@ -91,7 +94,8 @@ class PassiveBenchCase(AbstractBenchCase):
         if self.level == "1dof":
             return self._one_dof_runner()
         kw = (
-            dict(n_span_elements=self.n_span_elements, n_fine=self.n_fine, cable_damping_s=self.cable_damping_s)
+            dict(n_span_elements=self.n_span_elements, n_fine=self.n_fine, cable_damping_s=self.cable_damping_s,
+                 hook_contact=self.hook_contact)
             if self.level != "rigid"
             else {}
         )

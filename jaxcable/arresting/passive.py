@@ -106,6 +106,7 @@ __all__ = [
     "CRITERIA_CFC_HZ",
     "DEFAULT_CABLE_DAMPING_S",
     "DEFAULT_FINE_ELEMENTS",
+    "DEFAULT_HOOK_CONTACT",
     "DEFAULT_FINE_HALF_WIDTH_M",
     "DEFAULT_SPAN_ELEMENTS",
     "FIDELITY_LEVELS",
@@ -118,6 +119,7 @@ __all__ = [
     "criteria_met",
     "filtered_histories",
     "filtered_maxima",
+    "hook_contact_at",
     "landing_outputs",
     "passive_landing_scene",
     "smooth_landing_outputs",
@@ -653,12 +655,22 @@ explicit solvers run the ale and full levels at their cheapest (Bosh3, ``LEVEL_D
 cables' mode rings (a_max 7.6 g on the full level's design case), so it suits solver benchmarks and
 tests of the numerics, not criteria."""
 
-DEFAULT_SPAN_ELEMENTS = 32
-"""ALE elements per arresting span in the ale and full scenes unless given: the design case's
-a_max converges at 32 (within 1.1% of 64 elements; 16 err by -6%, ``docs/arresting_validation.md``)."""
+DEFAULT_SPAN_ELEMENTS = 64
+"""ALE elements per arresting span in the ale and full scenes unless given. With the hook as a
+sliding node (:data:`DEFAULT_HOOK_CONTACT`) the criteria converge there at the full level: 128
+elements move z_max, a_max and sigma_max by at most 0.9% on the design case (a_max 5.18 / 5.13 g)
+and on section IV.A's deviated case (6.04 / 6.09 g); at 32 the design case's a_max reads 11% high
+(``docs/arresting_validation.md``, "The hook as a sliding node")."""
 
-DEFAULT_FINE_ELEMENTS = 16
-"""Of those, equal fine elements over +-3 m around each hook (0.375 m) unless given."""
+DEFAULT_FINE_ELEMENTS = 32
+"""Of those, equal fine elements next to each hook (0.19 m over +-3 m) unless given."""
+
+DEFAULT_HOOK_CONTACT = "node"
+"""How a hook holds an ALE cable unless given: ``"node"``, the hook as a sliding node of its cable
+(:class:`~jaxcable.arresting.cable_sets.AleCables`). The capsule contact (``"capsule"``) pushes the
+cable along itself where it kinks over the hook, and the deviated case's sigma_max then scatters
+over 765-846 MPa with the mesh instead of converging; the node's converges within 0.3%. The rigid
+level's massless cables have no nodes: there it means the capsule contact."""
 
 DEFAULT_FINE_HALF_WIDTH_M = 3.0
 """Half-width of the fine region around each hook's throat at capture [m] unless given."""
@@ -674,9 +686,58 @@ def scene_contact_law(v_s_m_s: float = DEFAULT_CONTACT_SLIP_M_S):
     return ContactLaw(v_s=v_s_m_s, v_d=2.5 * v_s_m_s)
 
 
-def check_hook_contact(hook_contact: str, fidelity: str):
-    """ValueError unless ``hook_contact`` is ``"capsule"`` or ``"node"``, and ``"node"`` only at a
-    level with ALE cables (``ale``, ``full``): the case functions of the sweeps check this."""
+def hook_contact_at(hook_contact: str | None, fidelity: str) -> str:
+    """``hook_contact`` as given, or where it is None the default of the ``fidelity`` level:
+    :data:`DEFAULT_HOOK_CONTACT` with ALE cables (``ale``, ``full``), ``"capsule"`` at ``rigid``."""
+    if hook_contact is not None:
+        return hook_contact
+    return "capsule" if fidelity in ("rigid", "1dof") else DEFAULT_HOOK_CONTACT
+
+
+LEGACY_ALE_MODEL = ("capsule", 32, 16)
+"""The ALE cables' hook model and mesh (hook contact, span elements, fine ones) of the scenes before
+:data:`DEFAULT_HOOK_CONTACT` and 64 span elements: sweeps written with them name none in their
+identity (:func:`ale_model_identity`), so that they still resume with these settings given."""
+
+
+def ale_model_identity(fidelity: str, hook_contact: str | None, n_span_elements: int, n_fine: int) -> dict:
+    """The part of a sweep's identity (``describe()``) that names the ALE cables' hook model and mesh:
+    ``{}`` at the rigid level and for :data:`LEGACY_ALE_MODEL`, else ``hook_contact``,
+    ``n_span_elements`` and ``n_fine``. A CSV resumes only rows computed with the same model."""
+    if fidelity == "rigid":
+        return {}
+    model = (hook_contact_at(hook_contact, fidelity), int(n_span_elements), int(n_fine))
+    if model == LEGACY_ALE_MODEL:
+        return {}
+    return dict(zip(("hook_contact", "n_span_elements", "n_fine"), model))
+
+
+def check_cable_mesh(n_span_elements: int, n_fine: int):
+    """ValueError unless ``n_span_elements`` (ALE elements per arresting span) and ``n_fine`` (of
+    them, fine ones next to the hook) are integers in range with a coarse element on each side."""
+    check_int("n_span_elements", n_span_elements, 3, MAX_SPAN_ELEMENTS)
+    check_int("n_fine", n_fine, 1, MAX_SPAN_ELEMENTS)
+    if n_span_elements < n_fine + 2:
+        raise ValueError(
+            f"n_span_elements must be >= n_fine + 2 (a coarse element on each side), got "
+            f"n_span_elements={n_span_elements}, n_fine={n_fine}"
+        )
+
+
+def ale_model_kwargs(fidelity: str, hook_contact: str | None, n_span_elements: int, n_fine: int) -> dict:
+    """The keyword arguments of :func:`passive_landing_scene` that set the ALE cables' hook model and
+    mesh (none at the rigid level, whose massless cables have neither)."""
+    if fidelity == "rigid":
+        return {}
+    return {"hook_contact": hook_contact, "n_span_elements": int(n_span_elements), "n_fine": int(n_fine)}
+
+
+def check_hook_contact(hook_contact: str | None, fidelity: str):
+    """ValueError unless ``hook_contact`` is None (the level's default, :func:`hook_contact_at`),
+    ``"capsule"`` or ``"node"``, and ``"node"`` only at a level with ALE cables (``ale``, ``full``):
+    the case functions of the sweeps check this."""
+    if hook_contact is None:
+        return
     if hook_contact not in ("capsule", "node"):
         raise ValueError(f"hook_contact must be 'capsule' or 'node', got {hook_contact!r}")
     if hook_contact == "node" and fidelity == "rigid":
@@ -704,7 +765,7 @@ def passive_landing_scene(
     rocket_params=None,
     save_spacing_s: float = SAVE_SPACING_S,
     n_save: int | None = None,
-    hook_contact: str = "capsule",
+    hook_contact: str | None = None,
 ):
     """The passive-deceleration scene with the paper's Table 1 defaults at a fidelity level
     (``rigid``, ``ale`` or ``full``; the ``1dof`` level is run by :func:`run_landing`).
@@ -738,9 +799,12 @@ def passive_landing_scene(
       the hooks) 0.5 m/s lowers sigma_max by 1.25% against 0.05 m/s (0.2 m/s: 0.5%).
       0.5 m/s halves the steps against 0.2 m/s (``docs/notes/contact_slip.md``; 0.3 s landings end
       before the hook load grows and do not show the difference).
-    * 32 span elements, 16 of them over +-3 m around each hook (0.375 m), 2 per tower: the design
-      case's a_max converges there (``docs/arresting_validation.md``, "Convergence"); 16 (8) run
-      about 1.5x faster and put a_max 6% low.
+    * the hook as a sliding node of its cable (:data:`DEFAULT_HOOK_CONTACT`) on 64 span elements,
+      32 of them over +-3 m next to each hook (0.19 m), 2 per tower: the design case's and the
+      deviated case's criteria converge there (within 0.9% of 128 elements at the full level;
+      ``docs/arresting_validation.md``). ``hook_contact="capsule", n_span_elements=32, n_fine=16``
+      (the default before) runs about 2x faster: on the design case its a_max reads 2% low, on
+      the deviated case a_max 14% high and sigma_max unconverged (765-846 MPa over the meshes).
 
     ``frame_centre_xy`` (2,) [m]: centre of the capture frame (the sliders' positions) at capture;
     default: under O (perfect tracking). The two-phase scene passes the tracked frame's centre.
@@ -753,13 +817,14 @@ def passive_landing_scene(
     samples, default None): the saved grid when :func:`jaxcable.core.simulate` gets no ``save_ts``
     (:meth:`PassiveLandingScene.default_save_ts`); the maxima a_max and sigma_max are taken over it.
 
-    ``hook_contact`` (ALE cables only): ``"capsule"`` (default), the Hertz/Coulomb contact of the
-    hooks' capsules with every span element, or ``"node"``, the hook as a sliding node of its
-    cable held at the throat by a ring (:meth:`AleCables._node_contact`): no push along a kinked
-    cable, at the price of a cable that can never leave its hook. With the node the design case's
-    a_max converges from ``n_span_elements=64, n_fine=32`` on (5.18 / 5.13 g at 64 / 128; 5.69 g at
-    the default 32), and the deviated case's sigma_max converges at every mesh tried
-    (``docs/arresting_validation.md``, "The hook as a sliding node").
+    ``hook_contact`` (ALE cables only; default None: :func:`hook_contact_at`, the node with ALE
+    cables): ``"node"``, the hook as a sliding node of its cable held at the throat by a ring
+    (:meth:`AleCables._node_contact`): no push along a kinked cable, at the price of a cable that
+    can never leave its hook; or ``"capsule"``, the Hertz/Coulomb contact of the hooks' capsules
+    with every span element. With the node the design case's a_max converges from
+    ``n_span_elements=64, n_fine=32`` on (5.18 / 5.13 g at 64 / 128; 5.69 g at 32), and the deviated
+    case's sigma_max converges at every mesh tried (``docs/arresting_validation.md``, "The hook as
+    a sliding node").
     """
     check_choice("fidelity", fidelity, FIDELITY_LEVELS)
     if fidelity == "1dof":
@@ -767,6 +832,8 @@ def passive_landing_scene(
     if cable_model is None:
         cable_model = "massless" if fidelity == "rigid" else "ale"
     check_choice("cable_model", cable_model, ("massless", "ale"))
+    if hook_contact is None:
+        hook_contact = DEFAULT_HOOK_CONTACT if cable_model == "ale" else "capsule"
     check_choice("hook_contact", hook_contact, ("capsule", "node"))
     if hook_contact == "node" and cable_model == "massless":
         raise ValueError(
@@ -783,13 +850,7 @@ def passive_landing_scene(
     check_cable_damping("cable_damping_s", cable_damping_s)
     check_t_end("t_end_s", t_end_s)
     _check_save_grid(save_spacing_s, n_save)
-    check_int("n_span_elements", n_span_elements, 3, MAX_SPAN_ELEMENTS)
-    check_int("n_fine", n_fine, 1, MAX_SPAN_ELEMENTS)
-    if n_span_elements < n_fine + 2:
-        raise ValueError(
-            f"n_span_elements must be >= n_fine + 2 (a coarse element on each side), got "
-            f"n_span_elements={n_span_elements}, n_fine={n_fine}"
-        )
+    check_cable_mesh(n_span_elements, n_fine)
     check_positive("fine_half_width_m", fine_half_width_m)
     check_range("fine_half_width_m", fine_half_width_m, 0.0, 1000.0, high_inclusive=True, unit=" m")
     check_int("n_rocket_bodies", n_rocket_bodies, 1, 100)

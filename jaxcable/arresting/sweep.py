@@ -52,9 +52,14 @@ from jaxcable.arresting.layout import ArrestingLayout, CaptureState
 from jaxcable.arresting.landing import LEVEL_STEP_CONTROL, batched_solver, level_solver_settings
 from jaxcable.arresting.passive import (
     DEFAULT_CABLE_DAMPING_S,
+    DEFAULT_FINE_ELEMENTS,
+    DEFAULT_SPAN_ELEMENTS,
     G_CRITERIA,
     SAVE_SPACING_S,
     LandingCriteria,
+    ale_model_identity,
+    ale_model_kwargs,
+    check_cable_mesh,
     check_hook_contact,
     landing_outputs,
     passive_landing_scene,
@@ -203,13 +208,19 @@ class PassiveCaseFunction(AbstractLandingCaseFunction):
     """Seed of the gusts (each case's key folds in its inputs, so a case reproduces anywhere)."""
     cable_damping_s: float = eqx.field(static=True, default=DEFAULT_CABLE_DAMPING_S)
     """The cables' stiffness-proportional damping beta [s] (not in the paper; a_max depends on it)."""
-    hook_contact: str = eqx.field(static=True, default="capsule")
-    """How a hook holds its cable at the ``ale``/``full`` levels: ``"capsule"`` or ``"node"`` (the
-    hook as a sliding node, :class:`~jaxcable.arresting.cable_sets.AleCables`)."""
+    hook_contact: str | None = eqx.field(static=True, default=None)
+    """How a hook holds its cable at the ``ale``/``full`` levels: ``"node"`` (the hook as a sliding
+    node, :class:`~jaxcable.arresting.cable_sets.AleCables`) or ``"capsule"``; None: the level's
+    default (:func:`~jaxcable.arresting.passive.hook_contact_at`)."""
+    n_span_elements: int = eqx.field(static=True, default=DEFAULT_SPAN_ELEMENTS)
+    """ALE elements per arresting span (``ale``/``full``)."""
+    n_fine: int = eqx.field(static=True, default=DEFAULT_FINE_ELEMENTS)
+    """Of those, fine elements next to each hook (``ale``/``full``)."""
 
     def __check_init__(self):
         check_choice("fidelity", self.fidelity, SWEEP_FIDELITIES)
         check_hook_contact(self.hook_contact, self.fidelity)
+        check_cable_mesh(self.n_span_elements, self.n_fine)
         check_positive("cable_damping_s", self.cable_damping_s, allow_zero=True)
         check_positive("t_end_s", self.t_end_s)
         check_positive("rtol", self.rtol)
@@ -236,7 +247,7 @@ class PassiveCaseFunction(AbstractLandingCaseFunction):
         return passive_landing_scene(
             self.fidelity, capture, self.layout, self.buffer, t_end_s=self.t_end_s,
             cable_damping_s=self.cable_damping_s, **air,
-            hook_contact=self.hook_contact,
+            **ale_model_kwargs(self.fidelity, self.hook_contact, self.n_span_elements, self.n_fine),
         )  # fmt: skip
 
     def _simulate(self, scene):
@@ -299,7 +310,7 @@ class PassiveCaseFunction(AbstractLandingCaseFunction):
             layout={k: np.asarray(getattr(self.layout, k)).tolist() for k in self.layout.__dataclass_fields__},
             # only when changed, so that sweeps written before the field existed still resume
             **({} if self.cable_damping_s == DEFAULT_CABLE_DAMPING_S else dict(cable_damping_s=self.cable_damping_s)),
-            **({} if self.hook_contact == "capsule" else {"hook_contact": self.hook_contact}),
+            **ale_model_identity(self.fidelity, self.hook_contact, self.n_span_elements, self.n_fine),
         )
 
 
@@ -336,7 +347,9 @@ def passive_case_fn(
     wind: bool = True,
     seed: int = 0,
     cable_damping_s: float = DEFAULT_CABLE_DAMPING_S,
-    hook_contact: str = "capsule",
+    hook_contact: str | None = None,
+    n_span_elements: int = DEFAULT_SPAN_ELEMENTS,
+    n_fine: int = DEFAULT_FINE_ELEMENTS,
 ) -> PassiveCaseFunction:
     """The passive-phase case function with Table 1 defaults and the level's solver settings
     (:func:`jaxcable.arresting.landing.level_solver_settings` of the level and ``cable_damping_s``
@@ -379,6 +392,8 @@ def passive_case_fn(
         seed=int(seed),
         cable_damping_s=float(cable_damping_s),
         hook_contact=hook_contact,
+        n_span_elements=int(n_span_elements),
+        n_fine=int(n_fine),
     )
 
 

@@ -98,8 +98,13 @@ from jaxcable.arresting.landing_rocket import rigid_landing_rocket
 from jaxcable.arresting.layout import HOOK_OF_CABLE, ArrestingLayout, CaptureState
 from jaxcable.arresting.passive import (
     DEFAULT_CABLE_DAMPING_S,
+    DEFAULT_FINE_ELEMENTS,
+    DEFAULT_SPAN_ELEMENTS,
     LandingCriteria,
     check_cable_damping,
+    ale_model_identity,
+    ale_model_kwargs,
+    check_cable_mesh,
     check_hook_contact,
     check_t_end,
     landing_outputs,
@@ -597,14 +602,20 @@ class TwoPhaseCaseFunction(AbstractLandingCaseFunction):
     criteria: LandingCriteria = eqx.field(static=True, default=LandingCriteria())
     cable_damping_s: float = eqx.field(static=True, default=DEFAULT_CABLE_DAMPING_S)
     """The cables' stiffness-proportional damping beta [s] in the passive phase (not in the paper)."""
-    hook_contact: str = eqx.field(static=True, default="capsule")
-    """How a hook holds its cable in an ``ale``/``full`` passive phase: ``"capsule"`` or ``"node"``
-    (the hook as a sliding node, :class:`~jaxcable.arresting.cable_sets.AleCables`)."""
+    hook_contact: str | None = eqx.field(static=True, default=None)
+    """How a hook holds its cable in an ``ale``/``full`` passive phase: ``"node"`` (the hook as a
+    sliding node, :class:`~jaxcable.arresting.cable_sets.AleCables`) or ``"capsule"``; None: the
+    level's default (:func:`~jaxcable.arresting.passive.hook_contact_at`)."""
+    n_span_elements: int = eqx.field(static=True, default=DEFAULT_SPAN_ELEMENTS)
+    """ALE elements per arresting span in an ``ale``/``full`` passive phase."""
+    n_fine: int = eqx.field(static=True, default=DEFAULT_FINE_ELEMENTS)
+    """Of those, fine elements next to each hook."""
 
     def __check_init__(self):
         check_positive("cable_damping_s", self.cable_damping_s, allow_zero=True)
         check_choice("fidelity", self.fidelity, ("rigid", "ale", "full"))
         check_hook_contact(self.hook_contact, self.fidelity)
+        check_cable_mesh(self.n_span_elements, self.n_fine)
 
     @property
     def host_build(self) -> bool:
@@ -640,7 +651,8 @@ class TwoPhaseCaseFunction(AbstractLandingCaseFunction):
         track, out1 = _tracking_jit(scene)
         passive = passive_landing_scene(
             self.fidelity, buffer=self.buffer, t_end_s=self.t_end_s, cable_damping_s=self.cable_damping_s,
-            hook_contact=self.hook_contact, **_passive_kwargs(scene, out1),
+            **ale_model_kwargs(self.fidelity, self.hook_contact, self.n_span_elements, self.n_fine),
+            **_passive_kwargs(scene, out1),
         )  # fmt: skip
         return out1, _tracking_histories(track), passive
 
@@ -721,12 +733,13 @@ class TwoPhaseCaseFunction(AbstractLandingCaseFunction):
                     m_w=float(self.buffer.counterweight_mass_kg), F_f=float(self.buffer.brake_force_N),
                     tracking=tracking,
                     **({} if self.cable_damping_s == DEFAULT_CABLE_DAMPING_S else dict(cable_damping_s=self.cable_damping_s)),
-                    **({} if self.hook_contact == "capsule" else {"hook_contact": self.hook_contact}))  # fmt: skip
+                    **ale_model_identity(self.fidelity, self.hook_contact, self.n_span_elements, self.n_fine))  # fmt: skip
 
 
 def two_phase_case_fn(fidelity="rigid", *, scenario="I", seed=0, buffer=None, layout=None, gain_per_s=None,
                       t_end_s=2.0, solver=None, rtol=None, max_steps=None, cable_damping_s=DEFAULT_CABLE_DAMPING_S,
-                      hook_contact="capsule", **_ignored):  # fmt: skip
+                      hook_contact=None, n_span_elements=DEFAULT_SPAN_ELEMENTS, n_fine=DEFAULT_FINE_ELEMENTS,
+                      **_ignored):  # fmt: skip
     """The two-phase case function with the scenario's controller gain and Table 1's buffer; registered
     as ``"arresting.full"`` (``phase="full"`` of :func:`jaxcable.arresting.sweep.case_fn_for`)."""
     check_choice("scenario", scenario, SCENARIO_SETTINGS)
@@ -738,6 +751,7 @@ def two_phase_case_fn(fidelity="rigid", *, scenario="I", seed=0, buffer=None, la
         gain_per_s=SCENARIO_SETTINGS[scenario]["gain_per_s"] if gain_per_s is None else gain_per_s,
         scenario=scenario, fidelity=fidelity, seed=int(seed), t_end_s=float(t_end_s),
         cable_damping_s=float(cable_damping_s), hook_contact=hook_contact,
+        n_span_elements=int(n_span_elements), n_fine=int(n_fine),
     )  # fmt: skip
 
 

@@ -14,7 +14,7 @@ from pathlib import Path
 import jax
 import numpy as np
 
-from jaxcable.arresting.passive import DEFAULT_CABLE_DAMPING_S
+from jaxcable.arresting.passive import DEFAULT_CABLE_DAMPING_S, DEFAULT_FINE_ELEMENTS, DEFAULT_SPAN_ELEMENTS
 from jaxcable.arresting.sweep import SWEEP_FIDELITIES, qmc_case_fn, run_qmc_sweep, summarize_sweep, summary_markdown
 from jaxcable.arresting.sweep_plots import plot_histories, plot_landing_plane, plot_tracking
 from jaxcable.arresting.uncertainty import PHASES, SCENARIOS, halton_samples, scenario_settings
@@ -75,7 +75,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("--rtol", type=positive("--rtol"), default=None, help="relative = absolute tolerance (default per level)")
     p.add_argument("--max-steps", type=positive_int("--max-steps"), default=None, help="solver step budget per case (default per level)")
     p.add_argument("--cable-damping", type=cable_damping(), default=DEFAULT_CABLE_DAMPING_S, help=f"cables' stiffness-proportional damping beta [s] (default {DEFAULT_CABLE_DAMPING_S:g} = 'calibrated', fitted to the paper's section III.F, docs/arresting_validation.md; the paper prints none, a_max depends on it: 1e-5 leaves the cables' mode ringing)")
-    p.add_argument("--hook-contact", choices=["capsule", "node"], default="capsule", help="how a hook holds its cable (--fidelity ale, full): capsule (default), the Hertz/Coulomb contact of the hook's capsules with every span element, or node, the hook as a sliding node of its cable (docs/arresting_validation.md)")
+    p.add_argument("--hook-contact", choices=["capsule", "node"], default=None, help="how a hook holds its cable (--fidelity ale, full): node (default), the hook as a sliding node of its cable, or capsule, the Hertz/Coulomb contact of the hook's capsules with every span element (docs/arresting_validation.md)")
+    p.add_argument("--span-elements", type=positive_int("--span-elements"), default=DEFAULT_SPAN_ELEMENTS, help=f"ALE elements per arresting span (--fidelity ale, full; default {DEFAULT_SPAN_ELEMENTS})")
+    p.add_argument("--fine-elements", type=positive_int("--fine-elements"), default=DEFAULT_FINE_ELEMENTS, help=f"of those, fine elements next to each hook (--fidelity ale, full; default {DEFAULT_FINE_ELEMENTS}); --hook-contact capsule --span-elements 32 --fine-elements 16 resumes the sweeps recorded before the node became the default")
     p.add_argument("--plot", metavar="PREFIX", help="write PREFIX_plane.png (Fig 21), PREFIX_histories.png (Figs 18-20) and, with --phase full, PREFIX_tracking.png (Figs 15-17)")
     p.add_argument("--plot-cases", type=positive_int("--plot-cases"), default=32, help="cases in the histories and tracking plots (default 32)")
     p.add_argument("--process-index", type=int, default=None, help="this host's index in a multi-host sweep (default: jax.process_index())")
@@ -133,7 +135,7 @@ def run(args: argparse.Namespace) -> Report:
         out = str(path.with_name(f"{path.stem}.p{p_index}of{p_count}{path.suffix}"))
     case_kwargs = dict(
         t_end_s=args.t_end, solver=args.solver, rtol=args.rtol, max_steps=args.max_steps, cable_damping_s=args.cable_damping,
-        hook_contact=args.hook_contact,
+        hook_contact=args.hook_contact, n_span_elements=args.span_elements, n_fine=args.fine_elements,
     )
     table = run_qmc_sweep(
         args.scenario,

@@ -626,7 +626,7 @@ def test_cable_set_response_matches_per_pair_autodiff_reference():
     from jaxcable.arresting.cable_sets import HookPoints
     from jaxcable.arresting.passive import passive_landing_scene
 
-    scene = passive_landing_scene("ale", t_end_s=0.1)
+    scene = passive_landing_scene("ale", t_end_s=0.1, hook_contact="capsule", n_span_elements=32, n_fine=16)
     y = scene.initial_state()
     y = eqx.tree_at(lambda s: s.rocket.r, y, y.rocket.r - jnp.array([0.0, 0.0, 0.005]))
     rng = np.random.default_rng(0)

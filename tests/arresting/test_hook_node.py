@@ -232,15 +232,24 @@ def test_landing_with_hook_nodes_closes_the_energy_budget():
 
 
 def test_sweeps_carry_the_hook_model_in_their_identity():
-    """A sweep's rows resume only under the same hook model: ``describe`` names it when it is the
-    node (and stays as before for the capsule, so earlier sweeps still resume); the rigid level,
-    whose cables have no nodes, refuses it."""
+    """A sweep's rows resume only under the same hook model and mesh: ``describe`` names them at the
+    ale/full levels (the default: the node on 64 span elements), and stays as before for the capsule
+    contact on 32 span elements (16 fine), so that sweeps written with those still resume with them
+    given; the rigid level names neither and refuses the node, whose cables have no nodes."""
     from jaxcable.arresting.sweep import passive_case_fn
     from jaxcable.arresting.two_phase import two_phase_case_fn
 
     for factory in (passive_case_fn, two_phase_case_fn):
-        assert factory("ale", hook_contact="node").describe()["hook_contact"] == "node"
-        assert "hook_contact" not in factory("ale").describe()
+        d = factory("ale").describe()
+        assert (d["hook_contact"], d["n_span_elements"], d["n_fine"]) == ("node", 64, 32)
+        assert factory("ale", hook_contact="node").describe() == d
+        assert factory("full", hook_contact="capsule").describe()["hook_contact"] == "capsule"
+        assert factory("full", n_span_elements=48).describe()["n_span_elements"] == 48
+        legacy = factory("full", hook_contact="capsule", n_span_elements=32, n_fine=16).describe()
+        assert not {"hook_contact", "n_span_elements", "n_fine"} & set(legacy)
+        assert not {"hook_contact", "n_span_elements", "n_fine"} & set(factory("rigid").describe())
+        with pytest.raises(ValueError, match="n_span_elements must be >= n_fine"):
+            factory("full", n_span_elements=20, n_fine=20)
         with pytest.raises(ValueError, match="hook_contact='node' needs fidelity 'ale' or 'full'"):
             factory("rigid", hook_contact="node")
         with pytest.raises(ValueError, match="hook_contact must be 'capsule' or 'node'"):

@@ -28,7 +28,8 @@ MESH = dict(n_span_elements=4, n_fine=2)
 
 
 def _scene(beta=1e-5, **kw):
-    return passive_landing_scene("ale", t_end_s=T_END, cable_damping_s=beta, **MESH, **kw)
+    # the capsule contact unless asked: these tests differentiate its pairs (the node's: test_hook_node.py)
+    return passive_landing_scene("ale", t_end_s=T_END, cable_damping_s=beta, **MESH, **{"hook_contact": "capsule", **kw})
 
 
 def _moving_state(scene):
@@ -342,7 +343,7 @@ def test_hinge_jacobian_is_the_vector_fields_diagonal():
     error of a missing term (the damper alone would miss C by 30%, the spring alone K by 100%)."""
     from jaxcable.arresting.passive import _hinge_rows
 
-    scene = passive_landing_scene("full", t_end_s=T_END, **MESH)
+    scene = passive_landing_scene("full", t_end_s=T_END, hook_contact="capsule", **MESH)
     y = scene.initial_state()
     y = eqx.tree_at(lambda s: s.rocket.r, y, y.rocket.r.at[:, 2].add(-0.05))
 
