@@ -686,12 +686,13 @@ def scene_contact_law(v_s_m_s: float = DEFAULT_CONTACT_SLIP_M_S):
     return ContactLaw(v_s=v_s_m_s, v_d=2.5 * v_s_m_s)
 
 
-def hook_contact_at(hook_contact: str | None, fidelity: str) -> str:
-    """``hook_contact`` as given, or where it is None the default of the ``fidelity`` level:
-    :data:`DEFAULT_HOOK_CONTACT` with ALE cables (``ale``, ``full``), ``"capsule"`` at ``rigid``."""
+def hook_contact_at(hook_contact: str | None, cable_model: str) -> str:
+    """``hook_contact`` as given, or where it is None the default for the ``cable_model``:
+    :data:`DEFAULT_HOOK_CONTACT` with the ALE cables (``"ale"``, the ``ale`` and ``full`` levels'),
+    ``"capsule"`` with the massless ones (the ``rigid`` level's, which have no nodes)."""
     if hook_contact is not None:
         return hook_contact
-    return "capsule" if fidelity in ("rigid", "1dof") else DEFAULT_HOOK_CONTACT
+    return DEFAULT_HOOK_CONTACT if cable_model == "ale" else "capsule"
 
 
 LEGACY_ALE_MODEL = ("capsule", 32, 16)
@@ -706,7 +707,7 @@ def ale_model_identity(fidelity: str, hook_contact: str | None, n_span_elements:
     ``n_span_elements`` and ``n_fine``. A CSV resumes only rows computed with the same model."""
     if fidelity == "rigid":
         return {}
-    model = (hook_contact_at(hook_contact, fidelity), int(n_span_elements), int(n_fine))
+    model = (hook_contact_at(hook_contact, "ale"), int(n_span_elements), int(n_fine))  # the sweeps' ale/full scenes: ALE cables
     if model == LEGACY_ALE_MODEL:
         return {}
     return dict(zip(("hook_contact", "n_span_elements", "n_fine"), model))
@@ -833,8 +834,7 @@ def passive_landing_scene(
     if cable_model is None:
         cable_model = "massless" if fidelity == "rigid" else "ale"
     check_choice("cable_model", cable_model, ("massless", "ale"))
-    if hook_contact is None:
-        hook_contact = DEFAULT_HOOK_CONTACT if cable_model == "ale" else "capsule"
+    hook_contact = hook_contact_at(hook_contact, cable_model)
     check_choice("hook_contact", hook_contact, ("capsule", "node"))
     if hook_contact == "node" and cable_model == "massless":
         raise ValueError(
