@@ -75,7 +75,6 @@ import jax.numpy as jnp
 import numpy as np
 from jax.flatten_util import ravel_pytree
 
-from jaxcable.core.banded import _mm
 from jaxcable.core.validation import check_finite, check_positive
 from jaxcable.components.ale import AleCable, axial_tension_factor, strain_energy_density
 from jaxcable.arresting.buffer import BufferDevice
@@ -680,62 +679,79 @@ class CableSubsystem(eqx.Module):
     def assemble_stiff_blocks(self, q, qdot, J_z, J_zdot):
         """``K = dQ/dq`` and ``C = dQ/dq_dot`` of :meth:`generalised_forces` from the elements'
         Jacobians ``J_z``, ``J_zdot`` (n_el, 8, 8) (:meth:`element_row_jacobians`, plus whatever
-        element-local forces the caller adds, e.g. contact): the nodal coordinates are affine in
-        ``q`` with a constant map, ``x_n = (r_n, s_n) = B_n q_slow`` plus the internal node's own
-        ``r`` (identity), so ``K = A^T K_x A`` with ``K_x`` block-tridiagonal over the nodes (4 x 4
-        blocks summed from the two elements at each node). Returns ``(K_rr, C_rr)`` as
-        ``(lower, diag, upper)`` (n_int, 3, 3) each, ``(K_rz, C_rz)`` (n_int, 3, n_slow) (the
-        internal rows' columns on the slow coordinates: the pulleys' and hooks' ``s``, the hook
-        nodes' positions, the block's ``u``), ``(K_zz, C_zz)`` (n_slow, n_slow), the brake's
-        derivative included, and ``(K_zr, C_zr)``, the slow rows' columns on the internal nodes,
-        stored transposed in the layout of ``K_rz`` (n_int, 3, n_slow). These are not ``K_rz``:
-        ``K`` holds the Rayleigh term's derivative in the positions at the current strain rates,
-        which is not symmetric; next to a hook node, where the strain rates are large, the two
-        differ by up to 4x (measured on the deviated case)."""
+        element-local forces the caller adds, e.g. contact). Element ``e``'s ends' coordinates are
+        affine in ``q`` with a constant map: ``z_e = B_e q_slow`` plus the internal ends' own ``r``
+        (identity), so ``K = sum_e A_e^T J_e A_e``. Returns ``(K_rr, C_rr)`` as ``(lower, diag,
+        upper)`` (n_int, 3, 3) each, ``(K_rz, C_rz)`` (n_int, 3, n_slow) (the internal rows'
+        columns on the slow coordinates: the pulleys' and hooks' ``s``, the hook nodes' positions,
+        the block's ``u``), ``(K_zz, C_zz)`` (n_slow, n_slow), the brake's derivative included, and
+        ``(K_zr, C_zr)``, the slow rows' columns on the internal nodes, stored transposed in the
+        layout of ``K_rz`` (n_int, 3, n_slow). These are not ``K_rz``: ``K`` holds the Rayleigh
+        term's derivative in the positions at the current strain rates, which is not symmetric;
+        next to a hook node, where the strain rates are large, the two differ by up to 4x
+        (measured on the deviated case).
+
+        Element by element, not node by node: ``J_e B_e`` and ``J_e^T B_e`` give ``K_rz`` and
+        ``K_zr`` by two shifted adds, and ``K_zz = sum_e B_e^T J_e B_e``. ``B_e`` (8, n_slow) is
+        sparse: its ``s`` rows hold the interpolation weights on the pulleys' columns, its ``r``
+        rows only a hook node's identity and the block's direction, so ``J_e B_e`` is formed
+        column block by column block from those rows alone, elementwise (no dense 8 x 8 by 8 x
+        n_slow products, no reductions over short axes: on a CPU, XLA runs those as separate,
+        slow kernels). ``K`` and ``C`` go through together. Against the former node-by-node
+        assembly with dense ``B`` (three 4 x 4 by 4 x n_slow products per node and matrix): 1.3 ms
+        -> 0.55 ms with the element Jacobians, at the full level on 64 span elements, and the first
+        0.3 s of the design case 23.2 -> 17.7 s in the same steps (2-core CPU, JAX 0.10.2, float64;
+        ``experiments/bench_linearisation_parts.py``, ``docs/stiff_integrator.md``)."""
         route = self.route
+        S, U = route.slow_node_maps()  # (N, n_p), (N, 3)
+        H = jnp.asarray(route.hook_node_map(), J_z.dtype)  # (N, n_h) 0/1
+        n_p, n_h = S.shape[1], H.shape[1]
+        J = jnp.stack([J_z, J_zdot], axis=1)  # (n_el, 2, 8, 8): K's and C's element Jacobians
+
+        def times_B(M):
+            """``M_e @ B_e`` (n_el, 2, 8, n_slow), each column block from the rows of ``B_e`` that
+            are not zero: the pulleys' ``s`` from the ``s`` rows (3, 7), a hook node's position
+            and the block's travel from the ``r`` rows (0:3, 4:7)."""
+            ends = ((slice(None, -1), 0), (slice(1, None), 4))
+            cols_s = sum(M[..., k + 3, None] * S[e, None, None, :] for e, k in ends)
+            cols_h = sum(M[..., k : k + 3, None] * H[e, None, None, None, :] for e, k in ends)
+            cols_h = jnp.swapaxes(cols_h, -1, -2).reshape(cols_h.shape[:-2] + (3 * n_h,))  # hook-major
+            cols_u = sum(M[..., k + i, None] * U[e, None, None, i, None] for e, k in ends for i in range(3))
+            return jnp.concatenate([cols_s, cols_h, cols_u], axis=-1)
+
+        JB, JtB = times_B(J), times_B(_swap(J))
+        Hc = jnp.asarray(route.hook_columns(), J.dtype)
+        B = jnp.concatenate(  # (N, 4, n_slow): d (r_n, s_n) / d q_slow
+            [jnp.concatenate([jnp.zeros((S.shape[0], 3, n_p), J.dtype), Hc, U[:, :, None]], axis=2),
+             jnp.concatenate([S, jnp.zeros((S.shape[0], 3 * n_h + 1), J.dtype)], axis=1)[:, None]], axis=1,
+        )  # fmt: skip
+        Bz = jnp.concatenate([B[:-1], B[1:]], axis=1)  # (n_el, 8, n_slow)
+        K_zz = jnp.einsum("eis,ekit->kst", Bz, JB)
+
+        def node_rows(X):  # element-end rows (n_el, 2, 8, k) -> the internal nodes' r rows (n_int, 2, 3, k)
+            zero = jnp.zeros((1,) + X.shape[1:2] + (3,) + X.shape[3:], X.dtype)
+            return route.internal_rows(jnp.concatenate([X[:, :, 0:3], zero]) + jnp.concatenate([zero, X[:, :, 4:7]]))
+
+        K_rz, K_zr = node_rows(JB), node_rows(JtB)
         _, iidx, _, _ = route._index_tables()
         internal = np.nonzero(iidx >= 0)[0]
-        S, U = route.slow_node_maps()
-        Hc = route.hook_columns()
-        n_nodes, n_p = S.shape
-        n_slow = n_p + Hc.shape[2] + 1
-        # B_n (N, 4, n_slow): d(r_n, s_n)/d(s_pulleys, h, u)
-        B = jnp.zeros((n_nodes, 4, n_slow), J_z.dtype)
-        B = B.at[:, 3, :n_p].set(S)
-        B = B.at[:, :3, n_p : n_slow - 1].set(Hc)
-        B = B.at[:, :3, n_slow - 1].set(U)
-        zero_el = jnp.zeros((1, 8, 8), J_z.dtype)
-        zero_node = jnp.zeros((1, 4, n_slow), J_z.dtype)
-        B_prev = jnp.concatenate([zero_node, B[:-1]])
-        B_next = jnp.concatenate([B[1:], zero_node])
-        prev_linked = iidx[internal - 1] >= 0  # internal nodes are never a route's first or last
-        next_linked = iidx[internal + 1] >= 0
-
-        def one(J):
-            E2 = jnp.concatenate([zero_el, J])  # element n - 1 of node n (its second end)
-            E1 = jnp.concatenate([J, zero_el])  # element n of node n (its first end)
-            D, L, U = E2[:, 4:, 4:] + E1[:, :4, :4], E2[:, 4:, :4], E1[:, :4, 4:]
-            dF = _mm(L, B_prev) + _mm(D, B) + _mm(U, B_next)  # (N, 4, n_slow)
-            tri = (
-                jnp.where(prev_linked[:, None, None], L[internal, :3, :3], 0.0),
-                D[internal, :3, :3],
-                jnp.where(next_linked[:, None, None], U[internal, :3, :3], 0.0),
-            )
-            # the slow rows' columns on node m: sum over the rows n = m - 1, m, m + 1 of B_n^T K_x[n, m]
-            zero_blk = jnp.zeros((1, 4, 4), J.dtype)
-            U_col = jnp.concatenate([zero_blk, U[:-1]])  # K_x[m - 1, m]
-            L_col = jnp.concatenate([L[1:], zero_blk])  # K_x[m + 1, m]
-            dG = _mm(_swap(B_prev), U_col) + _mm(_swap(B), D) + _mm(_swap(B_next), L_col)  # (N, n_slow, 4)
-            return tri, dF[internal, :3], jnp.einsum("nis,nit->st", B, dF), _swap(dG[internal, :, :3])
-
-        (K_rr, K_rz, K_zz, K_zr), (C_rr, C_rz, C_zz, C_zr) = one(J_z), one(J_zdot)
+        prev_linked = (iidx[internal - 1] >= 0)[:, None, None, None]  # internal nodes are never a route's first or last
+        next_linked = (iidx[internal + 1] >= 0)[:, None, None, None]
+        zb = jnp.zeros((1, 2, 3, 3), J.dtype)
+        diag = route.internal_rows(jnp.concatenate([J[:, :, 0:3, 0:3], zb]) + jnp.concatenate([zb, J[:, :, 4:7, 4:7]]))
+        lower = jnp.where(prev_linked, route.internal_rows(jnp.concatenate([zb, J[:, :, 4:7, 0:3]])), 0.0)
+        upper = jnp.where(next_linked, route.internal_rows(jnp.concatenate([J[:, :, 0:3, 4:7], zb])), 0.0)
         # the brake on the block coordinate (generalised_forces' Q_u)
         brake = self.buffer.generalized_force
         dQ_du = jax.jvp(lambda u: brake(qdot.u, u), (q.u,), (jnp.ones_like(q.u),))[1]
         dQ_dudot = jax.jvp(lambda ud: brake(ud, q.u), (qdot.u,), (jnp.ones_like(qdot.u),))[1]
-        K_zz = K_zz.at[-1, -1].add(dQ_du)
-        C_zz = C_zz.at[-1, -1].add(dQ_dudot)
-        return (K_rr, C_rr), (K_rz, C_rz), (K_zz, C_zz), (K_zr, C_zr)
+        K_zz = K_zz.at[0, -1, -1].add(dQ_du).at[1, -1, -1].add(dQ_dudot)
+        return (
+            ((lower[:, 0], diag[:, 0], upper[:, 0]), (lower[:, 1], diag[:, 1], upper[:, 1])),
+            (K_rz[:, 0], K_rz[:, 1]),
+            (K_zz[0], K_zz[1]),
+            (K_zr[:, 0], K_zr[:, 1]),
+        )
 
     def slow_mass_blocks(self, kin: "CableKinematics"):
         """The mass matrix's rows of the slow coordinates (pulley ``s``, block ``u``): ``(M_rs

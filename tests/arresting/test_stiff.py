@@ -361,3 +361,64 @@ def test_hinge_jacobian_is_the_vector_fields_diagonal():
         np.testing.assert_allclose(np.diag(approx), d, rtol=0.1)
         assert np.all(approx == np.diag(np.diag(approx)))
         assert np.abs(true - np.diag(d)).max() < 0.02 * np.abs(d).min()
+
+
+@pytest.mark.parametrize("hook_contact", ["capsule", "node"])
+def test_block_assembly_equals_the_dense_chain_rule(hook_contact):
+    """:meth:`CableSubsystem.assemble_stiff_blocks` (element by element, on the nonzero rows of
+    the map to the slow coordinates only) against the plain chain rule ``K = A^T K_x A``: random
+    dense element Jacobians summed into the nodal matrix ``K_x``, and ``A`` the Jacobian of
+    :meth:`CableRoute.nodes` by ``jax.jacfwd`` (independent of the assembly's hand-made map).
+    Every cable of the scene: with hook nodes (node contact) and without (capsule), the moving
+    block, pulleys and fixed ends. The brake's derivative is switched off (zero friction), so the
+    blocks are the assembly alone."""
+    scene = _scene(hook_contact=hook_contact)
+    y = _moving_state(scene)
+    rng = np.random.default_rng(7)
+    for c in range(4):
+        sub = jax.tree_util.tree_map(lambda x, c=c: x[c] if eqx.is_array(x) and x.ndim > 0 else x, scene.cables.subsystems)
+        sub = eqx.tree_at(lambda s: s.buffer, sub, eqx.tree_at(lambda b: b.brake_force_N, sub.buffer, 0.0 * sub.buffer.brake_force_N))
+        q = jax.tree_util.tree_map(lambda x, c=c: x[c], y.cables.q)
+        qdot = jax.tree_util.tree_map(lambda x, c=c: x[c], y.cables.qdot)
+        n_el = sub.route.n_nodes - 1
+        J_z, J_zd = (jnp.asarray(rng.normal(size=(n_el, 8, 8))) for _ in range(2))
+        (K_rr, C_rr), (K_rz, C_rz), (K_zz, C_zz), (K_zr, C_zr) = sub.assemble_stiff_blocks(q, qdot, J_z, J_zd)
+        flat, unravel = ravel_pytree(q)
+
+        def nodal(v, sub=sub, unravel=unravel):
+            r, s = sub.route.nodes(unravel(v))
+            return jnp.concatenate([r, s[:, None]], axis=1).reshape(-1)  # (N * 4,): (r_n, s_n) per node
+
+        A = np.asarray(jax.jacfwd(nodal)(flat))  # (4 N, n_q)
+        n_int = q.r.shape[0]
+        for J, tri, rz, zz, zr in ((J_z, K_rr, K_rz, K_zz, K_zr), (J_zd, C_rr, C_rz, C_zz, C_zr)):
+            Kx = np.zeros((4 * (n_el + 1),) * 2)
+            for e in range(n_el):
+                Kx[4 * e : 4 * e + 8, 4 * e : 4 * e + 8] += np.asarray(J[e])
+            K = A.T @ Kx @ A  # in the order of ravel_pytree(q): r (n_int * 3), then the slow ones
+            # the slow coordinates in the blocks' order: s, h (flattened), u
+            order = {name: np.arange(lo, lo + np.size(getattr(q, name))) for name, lo in _offsets(q).items()}
+            r_idx, slow_idx = order["r"], np.concatenate([order["s"], order["h"], order["u"]])
+            scale = np.abs(K).max()
+            lower, diag, upper = (np.asarray(b) for b in tri)
+            Krr = K[np.ix_(r_idx, r_idx)].reshape(n_int, 3, n_int, 3)
+            for j in range(n_int):
+                np.testing.assert_allclose(diag[j], Krr[j, :, j], atol=1e-12 * scale)
+                if j > 0:
+                    np.testing.assert_allclose(lower[j], Krr[j, :, j - 1], atol=1e-12 * scale)
+                if j < n_int - 1:
+                    np.testing.assert_allclose(upper[j], Krr[j, :, j + 1], atol=1e-12 * scale)
+            np.testing.assert_allclose(np.asarray(rz), K[np.ix_(r_idx, slow_idx)].reshape(n_int, 3, -1), atol=1e-12 * scale)
+            np.testing.assert_allclose(np.asarray(zz), K[np.ix_(slow_idx, slow_idx)], atol=1e-12 * scale)
+            np.testing.assert_allclose(np.asarray(zr), K[np.ix_(slow_idx, r_idx)].T.reshape(n_int, 3, -1), atol=1e-12 * scale)
+            assert np.abs(K[np.ix_(r_idx, slow_idx)]).max() > 0.1  # the border is exercised
+
+
+def _offsets(q):
+    """Start of each field of ``q`` in ``ravel_pytree(q)``, which flattens the fields in the
+    pytree's order."""
+    out, lo = {}, 0
+    for path, leaf in jax.tree_util.tree_flatten_with_path(q)[0]:
+        out[path[0].name] = lo
+        lo += int(np.size(leaf))
+    return out
