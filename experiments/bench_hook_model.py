@@ -10,10 +10,11 @@ first call, *run* the best later call, *per step* run / steps. Also reported: th
 the price sits beside what it buys (``docs/arresting_validation.md``: the node on 64 elements
 converges within 0.9% at the full level; the capsule contact on 32 does not off centre).
 
-Writes ``bench_hook_model.{json,md}``. Usage::
+Writes ``bench_hook_model<tag>.{json,md}``. Usage::
 
     python experiments/bench_hook_model.py                 # ~15 min on 2 cores
     python experiments/bench_hook_model.py --levels full --repeats 1
+    python experiments/bench_hook_model.py --levels ale --tag _ale
 """
 
 from __future__ import annotations
@@ -61,6 +62,7 @@ def main():
     p.add_argument("--t-end", type=float, default=1.0)
     p.add_argument("--repeats", type=int, default=1, help="timed calls after the first (default 1)")
     p.add_argument("--out", help="report folder (default experiments/results)")
+    p.add_argument("--tag", default="", help="suffix of the report's file names (e.g. _ale)")
     args = p.parse_args()
     enable_x64()
     out = _report.output_dir(args.out)
@@ -74,7 +76,7 @@ def main():
                        **{k: float(o[k]) for k in ("z_max_m", "a_max_g", "sigma_max_mpa")})  # fmt: skip
             data["rows"].append(row)
             print(row, flush=True)
-        _report.finish(data, out, STEM, write_md)
+        _report.finish(data, out, STEM + args.tag, write_md)
 
 
 if __name__ == "__main__":
