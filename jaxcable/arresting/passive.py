@@ -804,7 +804,7 @@ def passive_landing_scene(
       32 of them over +-3 m next to each hook (0.19 m), 2 per tower: the design case's and the
       deviated case's criteria converge there (within 0.9% of 128 elements at the full level;
       ``docs/arresting_validation.md``). ``hook_contact="capsule", n_span_elements=32, n_fine=16``
-      (the default before) runs 1.7x (ale) to 2.3x (full) faster on the design case
+      (the default before) runs 1.5x (ale) and 1.4x (full) faster on the design case
       (``experiments/bench_hook_model.py``): there its a_max reads 2% low, on
       the deviated case a_max 14% high and sigma_max unconverged (765-846 MPa over the meshes).
 
