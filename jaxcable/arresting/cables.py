@@ -698,10 +698,11 @@ class CableSubsystem(eqx.Module):
         column block by column block from those rows alone, elementwise (no dense 8 x 8 by 8 x
         n_slow products, no reductions over short axes: on a CPU, XLA runs those as separate,
         slow kernels). ``K`` and ``C`` go through together. Against the former node-by-node
-        assembly with dense ``B`` (three 4 x 4 by 4 x n_slow products per node and matrix): 1.3 ms
-        -> 0.55 ms with the element Jacobians, at the full level on 64 span elements, and the first
-        0.3 s of the design case 23.2 -> 17.7 s in the same steps (2-core CPU, JAX 0.10.2, float64;
-        ``experiments/bench_linearisation_parts.py``, ``docs/stiff_integrator.md``)."""
+        assembly with dense ``B`` (three 4 x 4 by 4 x n_slow products per node and matrix), at the
+        full level on 64 span elements: the cables' blocks 1.59 -> 0.68 ms, the whole
+        linearisation 1.77 -> 0.66 ms, the design case (1 s) 72 -> 42 s in the same steps (2-core
+        CPU, JAX 0.10.2, float64; ``experiments/bench_linearisation_parts.py``,
+        ``docs/stiff_integrator.md``)."""
         route = self.route
         S, U = route.slow_node_maps()  # (N, n_p), (N, 3)
         H = jnp.asarray(route.hook_node_map(), J_z.dtype)  # (N, n_h) 0/1
