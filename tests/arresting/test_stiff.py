@@ -395,10 +395,10 @@ def test_block_assembly_equals_the_dense_chain_rule(hook_contact):
             Kx = np.zeros((4 * (n_el + 1),) * 2)
             for e in range(n_el):
                 Kx[4 * e : 4 * e + 8, 4 * e : 4 * e + 8] += np.asarray(J[e])
-            K = A.T @ Kx @ A  # in the order of ravel_pytree(q): r (n_int * 3), then the slow ones
-            # the slow coordinates in the blocks' order: s, h (flattened), u
-            order = {name: np.arange(lo, lo + np.size(getattr(q, name))) for name, lo in _offsets(q).items()}
-            r_idx, slow_idx = order["r"], np.concatenate([order["s"], order["h"], order["u"]])
+            K = A.T @ Kx @ A  # in the order of ravel_pytree(q)
+            # each coordinate's position in the flat vector; the slow ones in the blocks' order: s, h (flattened), u
+            index = jax.tree_util.tree_map(lambda x: np.asarray(x).astype(int).ravel(), unravel(jnp.arange(flat.size, dtype=flat.dtype)))
+            r_idx, slow_idx = index.r, np.concatenate([index.s, index.h, index.u])
             scale = np.abs(K).max()
             lower, diag, upper = (np.asarray(b) for b in tri)
             Krr = K[np.ix_(r_idx, r_idx)].reshape(n_int, 3, n_int, 3)
@@ -412,13 +412,3 @@ def test_block_assembly_equals_the_dense_chain_rule(hook_contact):
             np.testing.assert_allclose(np.asarray(zz), K[np.ix_(slow_idx, slow_idx)], atol=1e-12 * scale)
             np.testing.assert_allclose(np.asarray(zr), K[np.ix_(slow_idx, r_idx)].T.reshape(n_int, 3, -1), atol=1e-12 * scale)
             assert np.abs(K[np.ix_(r_idx, slow_idx)]).max() > 0.1  # the border is exercised
-
-
-def _offsets(q):
-    """Start of each field of ``q`` in ``ravel_pytree(q)``, which flattens the fields in the
-    pytree's order."""
-    out, lo = {}, 0
-    for path, leaf in jax.tree_util.tree_flatten_with_path(q)[0]:
-        out[path[0].name] = lo
-        lo += int(np.size(leaf))
-    return out
