@@ -297,6 +297,18 @@ class CableRoute(eqx.Module):
         pattern = jnp.diag(diag) + jnp.diag(off, 1) + jnp.diag(off, -1)
         return jnp.linalg.inv(pattern)
 
+    def apply_mass_pattern_inverse(self, x):
+        """``mass_pattern_inverse() @ x`` for ``x`` (n_int, m), span by span: the pattern is block
+        diagonal over the spans, so each span's rows take only their own block."""
+        inverse = self.mass_pattern_inverse()
+        pieces, start = [], 0
+        for n_el in self.elements:
+            m = n_el - 1
+            if m > 0:
+                pieces.append(inverse[start : start + m, start : start + m] @ x[start : start + m])
+                start += m
+        return jnp.concatenate(pieces)
+
     def boundary_s(self, q: CableCoords):
         return self._boundary_values(self.s_boundary0, q.s)
 
@@ -877,7 +889,7 @@ class CableSubsystem(eqx.Module):
                 [jnp.broadcast_to(sb[j + 1] - sb[j], (n - 1,)) for j, n in enumerate(route.elements) if n > 1]
             )
             rhs = jnp.concatenate([Q_r, M_rs.reshape(n_int, 3 * n_slow)], axis=1)
-            sol = (6.0 / self.cable.rhoA_kg_per_m) / span_length[:, None] * (route.mass_pattern_inverse() @ rhs)
+            sol = (6.0 / self.cable.rhoA_kg_per_m) / span_length[:, None] * route.apply_mass_pattern_inverse(rhs)
             Minv_fr = sol[:, :3]
             Minv_Mrs = sol[:, 3:].reshape(n_int, 3, n_slow)
             schur = M_ss - M_rsT @ Minv_Mrs.reshape(-1, n_slow)
@@ -889,7 +901,12 @@ class CableSubsystem(eqx.Module):
             schur = schur.at[active].set(jnp.eye(n_slow, dtype=schur.dtype)[active])
             reduced_rhs = reduced_rhs.at[active].set(prescribed)
         a_slow = _small_solve(schur, reduced_rhs)
-        a_r = Minv_fr - jnp.sum(Minv_Mrs * a_slow, axis=-1) if internal.size else q.r * 0.0
+        if internal.size:
+            a_r = Minv_fr
+            for k in range(n_slow):  # elementwise, not a reduction over the short slow axis
+                a_r = a_r - Minv_Mrs[..., k] * a_slow[k]
+        else:
+            a_r = q.r * 0.0
         n_p = S.shape[1]
         return CableCoords(r=a_r, s=a_slow[:n_p], u=a_slow[-1], h=a_slow[n_p:-1].reshape(-1, 3))
 
