@@ -839,9 +839,10 @@ class CableSubsystem(eqx.Module):
         consistent-mass tridiagonal (x) I3, the coupling rows are ``c (2 G_self + G_other)`` and the
         slow block is ``sum c (G_1^T (2 G_1 + G_2) + G_2^T (G_1 + 2 G_2))``; we solve by the Schur
         complement on the slow coordinates. The internal-node block's inverse is a constant pattern
-        scaled per span (:meth:`CableRoute.mass_pattern_inverse`), so the solve is one small matmul
-        and a Gauss-Jordan on the few slow coordinates: O(n) per cable, all in closed form (no
-        autodiff and no LAPACK call inside the vector field).
+        scaled per span (:meth:`CableRoute.mass_pattern_inverse`), so the solve is one dense product
+        per span (quadratic in the span's internal nodes, 31 on the default mesh's arresting spans)
+        and a Gauss-Jordan on the few slow coordinates, all in closed form (no autodiff and no
+        LAPACK call inside the vector field).
         """
         route = self.route
         kin = self.kinematics(q, qdot) if kin is None else kin
@@ -880,9 +881,10 @@ class CableSubsystem(eqx.Module):
             M_rsT = route.internal_rows(nodalT.swapaxes(0, 1)).swapaxes(0, 1).reshape(n_slow, -1)
             # The internal-node block is blockdiag_j(rhoA L_j / 6 That_j) (x) I3 over the spans j, with
             # L_j the span's material length and That_j the tridiagonal of its material fractions
-            # (constant in time), so its inverse is a scaled constant matrix: one small matmul per
-            # evaluation, and the inverse itself depends only on parameters, so XLA hoists it out of
-            # the solver's loop (no LAPACK call per evaluation; measured in docs/notes/ale_vector_field.md).
+            # (constant in time), so its inverse is a scaled constant matrix: one small matmul per span
+            # and evaluation, and the inverse itself depends only on parameters, so XLA hoists it out of
+            # the solver's loop (no LAPACK call per evaluation; docs/notes/ale_vector_field.md, and the
+            # compiled design case's program in docs/stiff_integrator.md).
             n_int = internal.size
             sb = route.boundary_s(q)
             span_length = jnp.concatenate(
