@@ -295,7 +295,7 @@ class CableRoute(eqx.Module):
         diag = 2.0 * (dF_node[internal] + dF_node[internal + 1])
         off = jnp.where(np.diff(internal) == 1, dF[internal[:-1]], 0.0)
         pattern = jnp.diag(diag) + jnp.diag(off, 1) + jnp.diag(off, -1)
-        return jnp.linalg.inv(pattern)
+        return _dominant_inverse(pattern)
 
     def apply_mass_pattern_inverse(self, x):
         """``mass_pattern_inverse() @ x`` for ``x`` (n_int, m), span by span: the pattern is block
@@ -461,6 +461,29 @@ def _matvec(A, x):
     CPU, and launches, not flops, dominate at these sizes). Not the sums over all elements into
     the slow-coordinate blocks: see :meth:`CableSubsystem.accelerations`."""
     return jnp.sum(A * x[None, :], axis=1)
+
+
+def _dominant_inverse(A):
+    """``A^-1`` of a strictly diagonally dominant (n, n) matrix (the consistent-mass pattern): Gauss-Jordan
+    without pivoting in a ``fori_loop``, no LAPACK call.
+
+    Why not ``jnp.linalg.inv``: on XLA's CPU backend a batched LAPACK call (here one per cable) splits its
+    batch over the process's intra-op thread pool and blocks its pool thread until the parts finish. With
+    one JAX device per core (``jaxcable sweep --cpu-devices auto``) two programs share that pool of two
+    threads; when both ran this inverse at once, each pool thread waited for work queued behind the other
+    and the sweep stopped at 0% CPU (reproduced with two threads inverting on two CPU devices; JAX
+    0.10.2; ``docs/sweeps.md``). The inverse runs once per solve (outside the solver's loop), so its
+    cost does not matter."""
+    n = A.shape[-1]
+    M = jnp.concatenate([A, jnp.eye(n, dtype=A.dtype)], axis=1)
+    rows = jnp.arange(n)[:, None]
+
+    def eliminate(k, M):
+        pivot_row = M[k] / M[k, k]
+        column = jax.lax.dynamic_slice_in_dim(M, k, 1, axis=1)
+        return jnp.where(rows == k, pivot_row[None, :], M - column * pivot_row[None, :])
+
+    return jax.lax.fori_loop(0, n, eliminate, M)[:, n:]
 
 
 def _small_solve(A, b):

@@ -373,3 +373,20 @@ def test_active_pulley_rows_are_prescribed_and_the_rest_is_lagrange():
     free = np.ones(residual.shape[0], bool)
     free[active_row] = False
     assert float(jnp.max(jnp.abs(residual[free]))) < 1e-9 * float(jnp.max(jnp.abs(rhs)))
+
+
+def test_mass_pattern_inverse_is_the_inverse_without_a_lapack_call():
+    """The consistent-mass pattern's inverse equals LAPACK's to round-off, and its compiled program
+    calls no LAPACK kernel: batched LAPACK calls from two CPU devices at once deadlocked the
+    two-device sweep on XLA's shared thread pool (``_dominant_inverse``)."""
+    route, _ = _buffer_route()
+    got = route.mass_pattern_inverse()
+    pattern = jnp.linalg.inv(got)
+    np.testing.assert_allclose(np.asarray(got @ pattern), np.eye(got.shape[0]), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(np.asarray(got), np.asarray(jnp.linalg.inv(pattern)), rtol=1e-12, atol=1e-12 * float(jnp.max(jnp.abs(got))))
+    batched = jax.vmap(lambda r: r.mass_pattern_inverse())(jax.tree_util.tree_map(lambda x: jnp.stack([x, x]), route))
+    text = jax.jit(lambda r: jax.vmap(lambda q: q.mass_pattern_inverse())(r)).lower(
+        jax.tree_util.tree_map(lambda x: jnp.stack([x, x]), route)
+    ).compile().as_text()
+    assert 'custom_call_target="lapack' not in text
+    np.testing.assert_allclose(np.asarray(batched[1]), np.asarray(got), rtol=0, atol=0)
