@@ -384,9 +384,8 @@ def test_mass_pattern_inverse_is_the_inverse_without_a_lapack_call():
     pattern = jnp.linalg.inv(got)
     np.testing.assert_allclose(np.asarray(got @ pattern), np.eye(got.shape[0]), rtol=0, atol=1e-12)
     np.testing.assert_allclose(np.asarray(got), np.asarray(jnp.linalg.inv(pattern)), rtol=1e-12, atol=1e-12 * float(jnp.max(jnp.abs(got))))
-    batched = jax.vmap(lambda r: r.mass_pattern_inverse())(jax.tree_util.tree_map(lambda x: jnp.stack([x, x]), route))
-    text = jax.jit(lambda r: jax.vmap(lambda q: q.mass_pattern_inverse())(r)).lower(
-        jax.tree_util.tree_map(lambda x: jnp.stack([x, x]), route)
-    ).compile().as_text()
+    stacked = jax.tree_util.tree_map(lambda x: jnp.stack([x, x]), route)
+    compiled = jax.jit(jax.vmap(lambda r: r.mass_pattern_inverse())).lower(stacked).compile()
+    text, batched = compiled.as_text(), compiled(stacked)
     assert 'custom_call_target="lapack' not in text
     np.testing.assert_allclose(np.asarray(batched[1]), np.asarray(got), rtol=0, atol=0)
