@@ -147,7 +147,12 @@ def main():
         if not (node_csv.exists() and capsule_csv.exists()):
             print(f"scenario {s}: {node_csv.name if not node_csv.exists() else capsule_csv.name} missing, skipped")
             continue
-        data["scenarios"][s] = compare(read_sweep_csv(node_csv), read_sweep_csv(capsule_csv))
+        try:
+            node = read_sweep_csv(node_csv)
+        except ValueError as err:  # a sweep just started: its CSV holds no row yet
+            print(f"scenario {s}: {err}, skipped")
+            continue
+        data["scenarios"][s] = compare(node, read_sweep_csv(capsule_csv))
         print(f"scenario {s}: {len(data['scenarios'][s]['case'])} cases in both", flush=True)
     if not data["scenarios"]:
         raise SystemExit("no scenario has both CSVs")

@@ -106,3 +106,17 @@ def test_default_batch_size_per_level_and_device():
     assert default_batch_size("ale", [cpu, cpu]) == 2  # two devices, one case each
     with pytest.raises(ValueError, match="fidelity"):
         default_batch_size("1dof", [cpu])
+
+
+def test_batches_that_may_hang_several_cpu_devices_are_refused():
+    import jax
+
+    from jaxcable.arresting.sweep import check_batch_size, default_batch_size
+
+    cpu = jax.local_devices(backend="cpu")[0]
+    two = [cpu, cpu]
+    check_batch_size(default_batch_size("full", two), "full", two)  # the default: one case a device
+    check_batch_size(8, "full", [cpu])  # one device: its own pool threads run the batch's parts
+    check_batch_size(64, "rigid", two)  # no flexible rocket below level full
+    with pytest.raises(ValueError, match="batch_size = 4 puts 2 cases on each of 2 CPU devices"):
+        check_batch_size(4, "full", two)

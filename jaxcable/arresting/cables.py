@@ -476,14 +476,17 @@ def _dominant_inverse(A):
     cost does not matter."""
     n = A.shape[-1]
     M = jnp.concatenate([A, jnp.eye(n, dtype=A.dtype)], axis=1)
-    rows = jnp.arange(n)[:, None]
+    return jax.lax.fori_loop(0, n, _gauss_jordan_step, M)[:, n:]
 
-    def eliminate(k, M):
-        pivot_row = M[k] / M[k, k]
-        column = jax.lax.dynamic_slice_in_dim(M, k, 1, axis=1)
-        return jnp.where(rows == k, pivot_row[None, :], M - column * pivot_row[None, :])
 
-    return jax.lax.fori_loop(0, n, eliminate, M)[:, n:]
+def _gauss_jordan_step(k, M):
+    """One Gauss-Jordan step without pivoting on the augmented (n, n + m) matrix ``M``: row ``k``
+    scaled to a unit pivot, column ``k`` cleared from every other row. ``k`` static (unrolled) or
+    traced (``fori_loop``)."""
+    pivot_row = M[k] / M[k, k]
+    column = jax.lax.dynamic_slice_in_dim(M, k, 1, axis=1)
+    rows = np.arange(M.shape[0])[:, None]
+    return jnp.where(rows == k, pivot_row[None, :], M - column * pivot_row[None, :])
 
 
 def _small_solve(A, b):
@@ -493,10 +496,8 @@ def _small_solve(A, b):
     elimination for n ~ 5 (measured: 3.5 vs 1.1 us)."""
     n = A.shape[-1]
     M = jnp.concatenate([A, b[:, None]], axis=1)
-    rows = np.arange(n)[:, None]
     for k in range(n):
-        pivot_row = M[k] / M[k, k]
-        M = jnp.where(rows == k, pivot_row[None, :], M - M[:, k : k + 1] * pivot_row[None, :])
+        M = _gauss_jordan_step(k, M)
     return M[:, n]
 
 

@@ -444,6 +444,27 @@ def default_batch_size(fidelity: str, devices=None) -> int:
     return per_device * len(devices)
 
 
+def check_batch_size(batch_size: int, fidelity: str, devices=None) -> None:
+    """Refuse a batch that may hang a sweep on several CPU devices: at level ``full`` more than one
+    case a device batches the flexible rocket's 34 x 34 LAPACK Cholesky and its triangular solves.
+
+    On XLA's CPU backend a batched LAPACK call splits its batch over the process's intra-op pool and
+    blocks its pool thread until the parts finish; the CPU devices of one process share that pool
+    (one thread a core), so two devices in such a call at once can each wait for work queued behind
+    the other. A toy with this Cholesky vmapped over 32 cases a device hung on two devices (JAX 0.10.2,
+    ``docs/sweeps.md``). Batching gains nothing there anyway: two devices with 2 cases each ran
+    slower than with 1 (:func:`default_batch_size`). One device, or a GPU, is not affected."""
+    devices = jax.local_devices() if devices is None else list(devices)
+    n_dev = len(devices)
+    if fidelity == "full" and n_dev > 1 and devices[0].platform == "cpu" and batch_size > n_dev:
+        raise ValueError(
+            f"batch_size = {batch_size} puts {-(-batch_size // n_dev)} cases on each of {n_dev} CPU devices at "
+            "fidelity 'full': the batched LAPACK Cholesky of the flexible rocket can hang several CPU devices "
+            f"sharing one thread pool. Use batch_size 'auto' (one case a device, {n_dev} here) or one CPU "
+            "device (jaxcable sweep --cpu-devices 1) for larger batches"
+        )
+
+
 def run_qmc_sweep(
     scenario: str = "I",
     n: int = 100,
@@ -469,6 +490,7 @@ def run_qmc_sweep(
     ``batch_size``: cases per compiled call, or ``"auto"`` (:func:`default_batch_size`)."""
     if batch_size == "auto":
         batch_size = default_batch_size(fidelity, devices)
+    check_batch_size(batch_size, fidelity, devices)
     case_fn = qmc_case_fn(scenario, phase, fidelity, seed, **case_kwargs)
     samples = halton_samples(n, scenario, phase, seed)
     identity = dict(
