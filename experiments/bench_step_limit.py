@@ -81,7 +81,7 @@ class RecordingRosenbrockW(RosenbrockW):
 
 def _controller(scene, rtol, atol, norm=None):
     pcoeff, icoeff = LEVEL_STEP_CONTROL["full"]
-    kw = {} if norm is None else dict(norm=norm)
+    kw = {} if norm is None else {"norm": norm}
     c = diffrax.PIDController(rtol=rtol, atol=atol, pcoeff=pcoeff, icoeff=icoeff, **kw)
     jumps = scene.jump_times()
     return c if jumps is None else diffrax.ClipStepSizeController(c, jump_ts=jumps)
@@ -116,14 +116,14 @@ def error_shares(scene, t_end, rtol, atol, max_steps) -> dict:
     where = np.array([r[3] for r in rows])
     total = shares.sum(1)
     dominant = shares.argmax(1)
-    out = dict(
-        attempts=len(rows), steps=int(res.num_steps), rejected=int(res.num_rejected),
-        leaves={
-            names[k]: dict(shape=shapes[k], dominant_in=int(np.sum(dominant == k)), mean_share=float(np.mean(shares[:, k] / total)))
+    out = {
+        "attempts": len(rows), "steps": int(res.num_steps), "rejected": int(res.num_rejected),
+        "leaves": {
+            names[k]: {"shape": shapes[k], "dominant_in": int(np.sum(dominant == k)), "mean_share": float(np.mean(shares[:, k] / total))}
             for k in range(len(names)) if np.any(dominant == k) or np.mean(shares[:, k] / total) > 1e-3
         },
-        windows=[],
-    )  # fmt: skip
+        "windows": [],
+    }  # fmt: skip
     k_v = names.index(".cables.qdot.r")
     n_nodes = shapes[k_v][1]
     node = (where[:, k_v] // 3) % n_nodes
@@ -132,11 +132,11 @@ def error_shares(scene, t_end, rtol, atol, max_steps) -> dict:
         if m.any():
             top = collections.Counter(dominant[m]).most_common(1)[0]
             on_v = m & (dominant == k_v)
-            out["windows"].append(dict(
-                t_s=[a, b], attempts=int(m.sum()), median_step_s=float(np.median(h[m])),
-                dominant=names[top[0]], dominant_fraction=float(top[1] / m.sum()),
-                node_range_of_largest=[int(np.percentile(node[on_v], 5)), int(np.percentile(node[on_v], 95))] if on_v.any() else None,
-            ))  # fmt: skip
+            out["windows"].append({
+                "t_s": [a, b], "attempts": int(m.sum()), "median_step_s": float(np.median(h[m])),
+                "dominant": names[top[0]], "dominant_fraction": float(top[1] / m.sum()),
+                "node_range_of_largest": [int(np.percentile(node[on_v], 5)), int(np.percentile(node[on_v], 95))] if on_v.any() else None,
+            })  # fmt: skip
     return out
 
 
@@ -149,7 +149,7 @@ def work_precision(scene, t_end, max_steps) -> list:
         if not rows:  # compiles once: the tolerances and the weight are arrays
             _solve(scene, t_end, solver, c, max_steps)
         res, wall = _solve(scene, t_end, solver, c, max_steps)
-        row = dict(rtol=rtol, weight=w, wall_s=wall, steps=int(res.num_steps), rejected=int(res.num_rejected), status=int(res.status))
+        row = {"rtol": rtol, "weight": w, "wall_s": wall, "steps": int(res.num_steps), "rejected": int(res.num_rejected), "status": int(res.status)}
         row.update({k: float(res.outputs[k]) for k in KEYS})
         rows.append(row)
         print(row, flush=True)
