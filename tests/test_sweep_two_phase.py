@@ -191,3 +191,22 @@ def test_ale_level_rows_equal_single_two_phase_landings(tmp_path):
             # ale level's tolerance, 1e-4, would allow more if the step sequences parted
             assert table[name][i] == pytest.approx(o[name], rel=1e-6), (i, name)
         assert table[CAPTURED_PREFIX + "x_m"][i] == pytest.approx(o["captured_state"]["x_m"], rel=1e-6)
+
+
+def test_screening_tolerance_reaches_the_passive_phase_only_where_it_applies():
+    from jaxcable.arresting.landing import level_solver_settings
+    from jaxcable.arresting.two_phase import two_phase_case_fn
+
+    default = two_phase_case_fn("full")
+    screening = two_phase_case_fn("full", rtol=1e-4)
+    assert default.passive_solver_settings()["full"][1:3] == level_solver_settings("full")[1:3]
+    assert screening.passive_solver_settings()["full"][1:3] == (1e-4, 1e-4)
+    # a resumed CSV must not mix tolerances: the tolerance is part of the sweep's identity
+    assert "passive_rtol" not in default.describe()
+    assert screening.describe()["passive_rtol"] == 1e-4
+    with pytest.raises(ValueError, match="passive_rtol = 0.0001: a two-phase sweep at level 'rigid'"):
+        two_phase_case_fn("rigid", rtol=1e-4)
+    with pytest.raises(ValueError, match="--solver/--max-steps"):
+        two_phase_case_fn("full", solver="tsit5")
+    with pytest.raises(ValueError, match="passive_rtol"):
+        two_phase_case_fn("ale", rtol=-1.0)

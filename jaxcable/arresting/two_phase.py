@@ -610,9 +610,21 @@ class TwoPhaseCaseFunction(AbstractLandingCaseFunction):
     """ALE elements per arresting span in an ``ale``/``full`` passive phase."""
     n_fine: int = eqx.field(static=True, default=DEFAULT_FINE_ELEMENTS)
     """Of those, fine elements next to each hook."""
+    passive_rtol: float | None = eqx.field(static=True, default=None)
+    """Relative = absolute tolerance of an ``ale``/``full`` passive phase (``jaxcable sweep --rtol``);
+    None: the level's default (:func:`.landing.level_solver_settings`). A screening sweep at 1e-4
+    takes 2.8x fewer W-method steps than the full level's default 1e-5, its criteria within 1e-3
+    (``docs/sweeps.md``, "A screening sweep")."""
 
     def __check_init__(self):
         check_positive("cable_damping_s", self.cable_damping_s, allow_zero=True)
+        if self.passive_rtol is not None:
+            check_positive("passive_rtol", self.passive_rtol)
+            if self.fidelity == "rigid":
+                raise ValueError(
+                    f"passive_rtol = {self.passive_rtol!r}: a two-phase sweep at level 'rigid' runs both phases at "
+                    "the level's default tolerances; --rtol applies to the passive phase at levels 'ale' and 'full'"
+                )
         check_choice("fidelity", self.fidelity, ("rigid", "ale", "full"))
         check_hook_contact(self.hook_contact, self.fidelity)
         check_cable_mesh(self.n_span_elements, self.n_fine)
@@ -671,6 +683,8 @@ class TwoPhaseCaseFunction(AbstractLandingCaseFunction):
         stability limit on stiffly damped cables). The sweep vmaps this phase, so the W-method
         relinearises at every step (:func:`.landing.batched_solver`)."""
         solver, rtol, atol, steps = level_solver_settings(self.fidelity, self.cable_damping_s)
+        if self.passive_rtol is not None:
+            rtol = atol = self.passive_rtol
         return {self.fidelity: (batched_solver(solver), rtol, atol, steps)}
 
     def _solve(self, case):
@@ -733,6 +747,7 @@ class TwoPhaseCaseFunction(AbstractLandingCaseFunction):
                     m_w=float(self.buffer.counterweight_mass_kg), F_f=float(self.buffer.brake_force_N),
                     tracking=tracking,
                     **({} if self.cable_damping_s == DEFAULT_CABLE_DAMPING_S else dict(cable_damping_s=self.cable_damping_s)),
+                    **({} if self.passive_rtol is None else {"passive_rtol": self.passive_rtol}),
                     **ale_model_identity(self.fidelity, self.hook_contact, self.n_span_elements, self.n_fine))  # fmt: skip
 
 
@@ -743,8 +758,11 @@ def two_phase_case_fn(fidelity="rigid", *, scenario="I", seed=0, buffer=None, la
     """The two-phase case function with the scenario's controller gain and Table 1's buffer; registered
     as ``"arresting.full"`` (``phase="full"`` of :func:`jaxcable.arresting.sweep.case_fn_for`)."""
     check_choice("scenario", scenario, SCENARIO_SETTINGS)
-    if solver is not None or rtol is not None or max_steps is not None:
-        raise ValueError("two-phase sweeps use the levels' default solver settings (--solver/--rtol/--max-steps: passive only)")
+    if solver is not None or max_steps is not None:
+        raise ValueError(
+            "two-phase sweeps use the levels' default solver and step budget (--solver/--max-steps: passive sweeps "
+            "only; --rtol sets the passive phase's tolerance at levels ale and full)"
+        )
     return TwoPhaseCaseFunction(
         buffer=BufferDevice() if buffer is None else buffer,
         layout=ArrestingLayout() if layout is None else layout,
@@ -752,6 +770,7 @@ def two_phase_case_fn(fidelity="rigid", *, scenario="I", seed=0, buffer=None, la
         scenario=scenario, fidelity=fidelity, seed=int(seed), t_end_s=float(t_end_s),
         cable_damping_s=float(cable_damping_s), hook_contact=hook_contact,
         n_span_elements=int(n_span_elements), n_fine=int(n_fine),
+        passive_rtol=None if rtol is None else float(rtol),
     )  # fmt: skip
 
 
