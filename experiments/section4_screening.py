@@ -21,20 +21,16 @@ from pathlib import Path
 
 import _report
 import numpy as np
+from section4_node_vs_capsule import KEYS, NODE, _bool
 
 from jaxcable.arresting.passive import LandingCriteria
 from jaxcable.core.config import enable_x64
 from jaxcable.studies.sweep import read_sweep_csv
 
 STEM = "section4_screening"
-DEFAULT = "sweep_two_phase_full_node_{}_n100.csv"
-SCREEN = "sweep_two_phase_full_node_{}_n100_screen.csv"
-KEYS = ("z_max_m", "a_max_g", "sigma_max_mpa")
+DEFAULT = NODE
+SCREEN = NODE.replace(".csv", "_screen.csv")
 FLAGS = ("success", "captured", "stopped", "z_ok", "a_ok", "sigma_ok")
-
-
-def _bool(col):
-    return np.asarray([str(v).strip().lower() in ("true", "1", "1.0") for v in col])
 
 
 def _limits():
