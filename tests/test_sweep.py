@@ -596,3 +596,86 @@ def test_physics_case_out_of_steps_is_a_failed_row(tmp_path):
     assert table["failed"].all() and set(table["solver_status"]) == {"max_steps_reached"}
     assert (table["num_steps"] <= 50).all()  # accepted steps; max_steps also counts rejected ones
     assert summarize_sweep(table)["success_rate"] == 0.0
+
+
+# ------------------------------------------------------------------------------------------------
+# Screening sweeps confirmed at the defaults
+# ------------------------------------------------------------------------------------------------
+
+
+def _doctored_screen(reference, path):
+    """A stand-in for a screening sweep: the reference CSV and sidecar, its rows edited so that the
+    cases to confirm are known (case 2 within 0.1% of the a_max limit, case 4 failed, case 5 not
+    stopped; the others far from every limit, stopped, successful)."""
+    out, _ = reference
+    lines = Path(out).read_text().splitlines()
+    header = lines[0].split(",")
+    col = {name: header.index(name) for name in header}
+    far = {"z_max_m": "5.0", "a_max_g": "2.0", "sigma_max_mpa": "400.0", "failed": "False", "stopped": "True",
+           "captured": "True", "success": "True", "solver_status": "successful"}  # fmt: skip
+    rows = []
+    for line in lines[1:]:
+        row = line.split(",")
+        for name, value in far.items():
+            row[col[name]] = value
+        case = int(row[0])
+        if case == 2:
+            row[col["a_max_g"]] = "5.005"
+        if case == 4:
+            row[col["failed"]], row[col["success"]] = "True", "False"
+        if case == 5:
+            row[col["stopped"]] = "False"
+        rows.append(",".join(row))
+    path.write_text("\n".join([lines[0], *rows]) + "\n")
+    Path(str(path) + ".json").write_text(Path(str(out) + ".json").read_text())
+    return path
+
+
+def test_cases_to_confirm_and_the_screened_sweeps_identity(reference, tmp_path):
+    from jaxcable.arresting.screening import cases_to_confirm, check_screened
+
+    screen = _doctored_screen(reference, tmp_path / "screen.csv")
+    table = read_sweep_csv(screen)
+    assert cases_to_confirm(table).tolist() == [2, 4, 5]
+    assert cases_to_confirm(table, band=1e-4).tolist() == [4, 5]  # 5.005 g is 1e-3 from the limit
+    assert cases_to_confirm(table, band=0.7).tolist() == list(range(7))  # 2 g is 0.6 from 5 g
+    nan = {k: v.copy() for k, v in table.items()}
+    nan["sigma_max_mpa"][0] = np.nan
+    assert 0 in cases_to_confirm(nan).tolist()
+    with pytest.raises(ValueError, match="band"):
+        cases_to_confirm(table, band=-1.0)
+    side = read_sidecar(screen)
+    identity, case_fn = side["identity"], side["case_fn"]
+    check_screened(screen, identity, dict(case_fn, t_end_s=99.0, rtol=1e-3), SWEEP["n"])  # settings may differ
+    with pytest.raises(ValueError, match="cable_damping_s"):
+        check_screened(screen, identity, dict(case_fn, cable_damping_s=1e-2), SWEEP["n"])
+    with pytest.raises(ValueError, match="scenario"):
+        check_screened(screen, dict(identity, scenario="II"), case_fn, SWEEP["n"])
+    with pytest.raises(ValueError, match="resume it first"):
+        check_screened(screen, identity, case_fn, SWEEP["n"] + 1)
+
+
+def test_cli_confirms_the_screened_cases_near_a_limit(reference, tmp_path, capsys):
+    _, table = reference
+    screen = _doctored_screen(reference, tmp_path / "screen.csv")
+    out = tmp_path / "confirmed.csv"
+    argv = ["--scenario", "I", "--n", "7", "--batch-size", "3", "--t-end", "0.6", "--out", str(out), "--confirm", str(screen), "--json"]
+    assert sweep_main(argv) == 0
+    summary = json.loads(capsys.readouterr().out)
+    conf = summary["confirmation"]
+    assert conf["cases"] == [2, 4, 5]
+    # the reference's verdicts (0.6 s: still descending, none a success) replace the doctored ones
+    doctored = read_sweep_csv(screen)
+    assert conf["turned"] == [c for c in (2, 4, 5) if doctored["success"][c] != table["success"][c]] == [2, 5]
+    confirmed = read_sweep_csv(out)
+    assert confirmed["case"].tolist() == [2, 4, 5]
+    merged = read_sweep_csv(conf["merged_csv"])
+    for c in range(7):
+        source = table if c in (2, 4, 5) else doctored
+        for name in ("z_max_m", "a_max_g", "sigma_max_mpa"):
+            np.testing.assert_allclose(merged[name][c], source[name][c], rtol=1e-9)
+        assert merged["success"][c] == source["success"][c]
+    assert summary["n_success"] == int(np.sum(merged["success"]))
+    # the screened file itself is refused as the output
+    assert sweep_main([*argv[:-5], "--out", str(screen), "--confirm", str(screen), "--json"]) == 2
+    assert "screened sweep itself" in capsys.readouterr().err

@@ -479,10 +479,13 @@ def run_qmc_sweep(
     devices=None,
     progress: bool = True,
     on_chunk=None,
+    cases=None,
     **case_kwargs,
 ) -> dict:
     """Section IV's sweep: ``n`` Halton cases of ``scenario`` for ``phase`` at ``fidelity``, this
     process's share of them (:func:`process_indices`) written to ``out``. Returns the columns.
+    ``cases``: only these case indices (of the ``n``), e.g. the cases of a screening sweep to confirm
+    (:mod:`jaxcable.arresting.screening`); default all.
 
     The sidecar identity holds scenario, phase, seed, process slice and the case function; ``n`` may
     grow on resume (the Halton prefix property keeps the earlier cases), not shrink.
@@ -507,11 +510,17 @@ def run_qmc_sweep(
         if chunk is not None and on_chunk is not None:
             on_chunk(chunk)
 
+    indices = process_indices(n, process_index, process_count)
+    if cases is not None:
+        cases = np.asarray(cases, dtype=int)
+        if cases.size and (cases.min() < 0 or cases.max() >= n):
+            raise ValueError(f"cases must be in [0, {n}), got {cases.min()}..{cases.max()}")
+        indices = indices[np.isin(indices, cases)]
     result = run_sweep(
         case_fn,
         samples,
         out,
-        indices=process_indices(n, process_index, process_count),
+        indices=indices,
         batch_size=batch_size,
         identity=identity,
         devices=devices,

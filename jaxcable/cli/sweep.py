@@ -15,6 +15,7 @@ import jax
 import numpy as np
 
 from jaxcable.arresting.passive import DEFAULT_CABLE_DAMPING_S, DEFAULT_FINE_ELEMENTS, DEFAULT_SPAN_ELEMENTS
+from jaxcable.arresting.screening import SCREENING_BAND, run_confirmation
 from jaxcable.arresting.sweep import SWEEP_FIDELITIES, qmc_case_fn, run_qmc_sweep, summarize_sweep, summary_markdown
 from jaxcable.arresting.sweep_plots import plot_histories, plot_landing_plane, plot_tracking
 from jaxcable.arresting.uncertainty import PHASES, SCENARIOS, halton_samples, scenario_settings
@@ -79,6 +80,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("--hook-contact", choices=["capsule", "node"], default=None, help="how a hook holds its cable (--fidelity ale, full): node (default), the hook as a sliding node of its cable, or capsule, the Hertz/Coulomb contact of the hook's capsules with every span element (docs/arresting_validation.md)")
     p.add_argument("--span-elements", type=positive_int("--span-elements"), default=DEFAULT_SPAN_ELEMENTS, help=f"ALE elements per arresting span (--fidelity ale, full; default {DEFAULT_SPAN_ELEMENTS})")
     p.add_argument("--fine-elements", type=positive_int("--fine-elements"), default=DEFAULT_FINE_ELEMENTS, help=f"of those, fine elements next to each hook (--fidelity ale, full; default {DEFAULT_FINE_ELEMENTS}); --hook-contact capsule --span-elements 32 --fine-elements 16 resumes the sweeps recorded before the node became the default")
+    p.add_argument(
+        "--confirm",
+        metavar="SCREENED_CSV",
+        help="rerun, with this command's settings, the cases of a finished screening sweep (e.g. one at --rtol 1e-4 "
+        "--t-end 1.2) whose criteria lie within --band of a limit, that failed, or that had not stopped; the rows go to "
+        "--out, the screened table with them in place to OUT_merged.csv, and the summary is of the merged table",
+    )
+    p.add_argument("--band", type=positive("--band"), default=SCREENING_BAND,
+                   help=f"with --confirm: relative distance from a limit inside which a screened verdict is rerun (default {SCREENING_BAND:g})")
     p.add_argument("--plot", metavar="PREFIX", help="write PREFIX_plane.png (Fig 21), PREFIX_histories.png (Figs 18-20) and, with --phase full, PREFIX_tracking.png (Figs 15-17)")
     p.add_argument("--plot-cases", type=positive_int("--plot-cases"), default=32, help="cases in the histories and tracking plots (default 32)")
     p.add_argument("--process-index", type=int, default=None, help="this host's index in a multi-host sweep (default: jax.process_index())")
@@ -130,6 +140,8 @@ def run(args: argparse.Namespace) -> Report:
     p_index = jax.process_index() if args.process_index is None else args.process_index
     p_count = jax.process_count() if args.process_count is None else args.process_count
     out = args.out
+    if args.confirm and p_count > 1:
+        raise ValueError(f"--confirm runs on one process (merge the screened sweep's files first), got process_count = {p_count}")
     if p_count > 1:
         # one file per process (hosts may share a file system): results.p0of4.csv, ...
         path = Path(out)
@@ -138,9 +150,7 @@ def run(args: argparse.Namespace) -> Report:
         t_end_s=args.t_end, solver=args.solver, rtol=args.rtol, max_steps=args.max_steps, cable_damping_s=args.cable_damping,
         hook_contact=args.hook_contact, n_span_elements=args.span_elements, n_fine=args.fine_elements,
     )
-    table = run_qmc_sweep(
-        args.scenario,
-        args.n,
+    sweep_kwargs = dict(
         phase=args.phase,
         fidelity=args.fidelity,
         out=out,
@@ -151,6 +161,12 @@ def run(args: argparse.Namespace) -> Report:
         progress=not (args.no_progress or args.json),
         **case_kwargs,
     )
+    confirmation = None
+    if args.confirm:
+        confirmation = run_confirmation(args.confirm, args.scenario, args.n, band=args.band, **sweep_kwargs)
+        table = confirmation["merged"]
+    else:
+        table = run_qmc_sweep(args.scenario, args.n, **sweep_kwargs)
     summary = summarize_sweep(table)
     summary.update(
         scenario=args.scenario,
@@ -164,6 +180,12 @@ def run(args: argparse.Namespace) -> Report:
     )
     summary["wind_applied"] = True
     title = f"scenario {args.scenario}, {args.phase} phase, fidelity {args.fidelity}"
+    if confirmation is not None:
+        summary["confirmation"] = dict(
+            screened=args.confirm, band=args.band, cases=confirmation["cases"].tolist(), turned=confirmation["turned"],
+            merged_csv=confirmation["merged_csv"],
+        )  # fmt: skip
+        title += f", {args.confirm} with {len(confirmation['cases'])} cases confirmed"
     if args.plot:
         summary["plots"] = [plot_landing_plane(table, f"{args.plot}_plane.png", f"{title}, {summary['n_cases']} cases")]
         # the histories are recomputed for the first --plot-cases cases, from the sweep's own case function
@@ -176,6 +198,13 @@ def run(args: argparse.Namespace) -> Report:
             summary["plots"].append(plot_tracking(hist, f"{args.plot}_tracking.png", f"{title}: tracking phase, first {k} cases", t_c))
         summary["plots"].append(plot_histories(hist, f"{args.plot}_histories.png", f"{title}: passive phase, first {k} cases"))
     lines = [summary_markdown(summary, title), f"rows in {out}"]
+    if confirmation is not None:
+        turned = confirmation["turned"]
+        lines += [
+            f"confirmed {len(confirmation['cases'])} cases within {args.band:g} of a limit (or failed, or not stopped): "
+            f"{', '.join(map(str, confirmation['cases'].tolist())) or 'none'}; verdicts turned: {', '.join(map(str, turned)) or 'none'}",
+            f"merged table in {confirmation['merged_csv']}",
+        ]
     lines += [f"plot written to {path}" for path in summary.get("plots", [])]
     return Report(summary, "\n".join(lines), ok=not summary["n_failed"])
 
