@@ -16,7 +16,8 @@ run here, about 3 min for 100 cases with its compilation, its rows in the git-ig
 ``experiments/out/section4_full/``): which verdicts the full level changes. Writes ``section4_full.{json,md}``, ``section4_full_plane_<S>.png``
 and ``section4_full_offset.png``. Usage::
 
-    python experiments/section4_full_report.py
+    python experiments/section4_full_report.py                  # the default hook model (node, 64 elements)
+    python experiments/section4_full_report.py --model capsule  # the records of the former default
 """
 
 from __future__ import annotations
@@ -36,6 +37,13 @@ from jaxcable.studies.sweep import read_sweep_csv
 
 STEM = "section4_full"
 CSV = "sweep_two_phase_full_calibrated_{}_n100.csv"
+MODELS = {
+    "capsule": dict(csvs=(CSV,), stem=STEM, label="the capsule contact on 32 span elements, the default when recorded"),
+    "node": dict(csvs=("sweep_two_phase_full_node_{}_n100.csv", "sweep_two_phase_full_node_{}_n100_confirm_merged.csv"),
+                 stem=STEM + "_node", label="the hook as a sliding node on 64 span elements, the default"),
+}  # fmt: skip
+"""The recorded sweeps, by hook model: the CSVs tried in turn (the defaults' sweep, else a screening
+sweep with its cases near a limit confirmed at the defaults, docs/sweeps.md), the report's stem."""
 
 
 def capture_offset(table):
@@ -88,7 +96,8 @@ def plot_offset(tables, path, criteria=None, rigid=None):
 
 
 def write_md(data, path):
-    L = ["# Section IV at the full level (two-phase sweeps, calibrated cable damping)", "", *_report.header(data), ""]
+    L = ["# Section IV at the full level (two-phase sweeps, calibrated cable damping)", "", *_report.header(data), "",
+         f"Hook model: {data.get('model_label', MODELS['capsule']['label'])}.", ""]  # fmt: skip
     for entry in data["scenarios"].values():
         L += [entry["markdown"], "", f"Rows: `experiments/results/{entry['csv']}`. ![plane]({entry['plane']})", ""]
         L += ["a_max by capture offset max(|x|, |y|) [m]:", "", "| offset | cases | a_max min-max [g] | a_max met |",
@@ -102,7 +111,7 @@ def write_md(data, path):
                    f"at the full level {r['success_full']}; a_max full / rigid {r['ratio_min']:.3f}-{r['ratio_max']:.3f} "
                    f"(mean {r['ratio_mean']:.3f}); verdicts: both succeed {r['both']}, rigid only {r['rigid_only']}, "
                    f"full only {r['full_only']}, neither {r['neither']}."), ""]  # fmt: skip
-    L.append("![a_max against the capture offset](section4_full_offset.png)")
+    L.append(f"![a_max against the capture offset]({data.get('stem', STEM)}_offset.png)")
     _report.write_lines(path, L)
 
 
@@ -111,21 +120,26 @@ def main():
     p.add_argument("--scenarios", nargs="+", default=["I", "II", "III"], choices=["I", "II", "III"])
     p.add_argument("--out", default=None)
     p.add_argument("--no-rigid", action="store_true", help="skip the rigid level's rows of the same cases")
+    p.add_argument("--model", choices=sorted(MODELS), default="node", help="whose recorded sweeps (default node)")
     args = p.parse_args()
+    model = MODELS[args.model]
+    stem = model["stem"]
     enable_x64()  # the sweeps ran in float64, as every landing scene does
     out = _report.output_dir(args.out)
-    data = _report.start(precision=_report.precision(), scenarios={})
+    data = _report.start(precision=_report.precision(), scenarios={}, model_label=model["label"], stem=stem)
     tables, rigid = {}, {}
     for scenario in args.scenarios:
-        csv = _report.RESULTS / CSV.format(scenario)
-        if not csv.exists():
+        found = [_report.RESULTS / name.format(scenario) for name in model["csvs"]]
+        found = [c for c in found if c.exists() and c.stat().st_size > 0]
+        if not found:
             continue
+        csv = found[0]
         table = read_sweep_csv(csv)
         if not len(table.get("case", [])):
             continue
         tables[scenario] = table
         title = f"scenario {scenario}, two-phase, full level ({len(table['case'])} of 100 cases)"
-        plane = f"{STEM}_plane_{scenario}.png"
+        plane = f"{stem}_plane_{scenario}.png"
         plot_landing_plane(table, out / plane, title)
         off = capture_offset(table)
         a = np.asarray(table["a_max_g"], float)
@@ -155,9 +169,9 @@ def main():
                 "neither": int((~ok_r & ~ok_f).sum()),
             }  # fmt: skip
     if not tables:
-        raise SystemExit(f"no sweep CSV found in {_report.RESULTS} ({CSV.format('<S>')}); run the sweeps first")
-    plot_offset(tables, out / f"{STEM}_offset.png", rigid=rigid)
-    _report.finish(data, out, STEM, write_md)
+        raise SystemExit(f"no sweep CSV found in {_report.RESULTS} ({model['csvs'][0].format('<S>')}); run the sweeps first")
+    plot_offset(tables, out / f"{stem}_offset.png", rigid=rigid)
+    _report.finish(data, out, stem, write_md)
 
 
 if __name__ == "__main__":

@@ -29,6 +29,9 @@ from jaxcable.studies.sweep import read_sweep_csv
 
 STEM = "section4_node_vs_capsule"
 NODE = "sweep_two_phase_full_node_{}_n100.csv"
+NODE_CONFIRMED = "sweep_two_phase_full_node_{}_n100_confirm_merged.csv"
+"""Where no sweep at the defaults exists: a screening sweep with its cases near a limit rerun at the
+defaults (``jaxcable sweep --confirm``, docs/sweeps.md)."""
 CAPSULE = "sweep_two_phase_full_calibrated_{}_n100.csv"
 KEYS = ("z_max_m", "a_max_g", "sigma_max_mpa")
 FLAGS = ("success", "captured", "criteria_met", "z_ok", "a_ok", "sigma_ok")
@@ -60,6 +63,8 @@ def summary_lines(scenario: str, c: dict) -> list:
     a_n, a_c = np.asarray(c["node_a_max_g"]), np.asarray(c["capsule_a_max_g"])
     L = [
         f"## Scenario {scenario}: the {n} cases both models ran",
+        "",
+        f"Node rows from `{c.get('node_csv', NODE.format(scenario))}`.",
         "",
         "| model | successful | a_max < 5 g | z_max < 10 m | sigma_max < 800 MPa | a_max: median [g] | range [g] |",
         "|---|---:|---:|---:|---:|---:|---:|",
@@ -144,6 +149,8 @@ def main():
     data = _report.start(scenarios={})
     for s in args.scenarios:
         node_csv, capsule_csv = res / NODE.format(s), res / CAPSULE.format(s)
+        if not node_csv.exists() and (res / NODE_CONFIRMED.format(s)).exists():
+            node_csv = res / NODE_CONFIRMED.format(s)
         if not (node_csv.exists() and capsule_csv.exists()):
             print(f"scenario {s}: {node_csv.name if not node_csv.exists() else capsule_csv.name} missing, skipped")
             continue
@@ -152,7 +159,7 @@ def main():
         except ValueError as err:  # a sweep just started: its CSV holds no row yet
             print(f"scenario {s}: {err}, skipped")
             continue
-        data["scenarios"][s] = compare(node, read_sweep_csv(capsule_csv))
+        data["scenarios"][s] = dict(compare(node, read_sweep_csv(capsule_csv)), node_csv=node_csv.name)
         print(f"scenario {s}: {len(data['scenarios'][s]['case'])} cases in both", flush=True)
     if not data["scenarios"]:
         raise SystemExit("no scenario has both CSVs")
