@@ -38,9 +38,9 @@ from jaxcable.studies.sweep import read_sweep_csv
 STEM = "section4_full"
 CSV = "sweep_two_phase_full_calibrated_{}_n100.csv"
 MODELS = {
-    "capsule": dict(csvs=(CSV,), stem=STEM, label="the capsule contact on 32 span elements, the default when recorded"),
-    "node": dict(csvs=("sweep_two_phase_full_node_{}_n100.csv", "sweep_two_phase_full_node_{}_n100_confirm_merged.csv"),
-                 stem=STEM + "_node", label="the hook as a sliding node on 64 span elements, the default"),
+    "capsule": {"csvs": (CSV,), "stem": STEM, "label": "the capsule contact on 32 span elements, the default when recorded"},
+    "node": {"csvs": ("sweep_two_phase_full_node_{}_n100.csv", "sweep_two_phase_full_node_{}_n100_confirm_merged.csv"),
+             "stem": STEM + "_node", "label": "the hook as a sliding node on 64 span elements, the default"},
 }  # fmt: skip
 """The recorded sweeps, by hook model: the CSVs tried in turn (the defaults' sweep, else a screening
 sweep with its cases near a limit confirmed at the defaults, docs/sweeps.md), the report's stem."""

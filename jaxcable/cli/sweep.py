@@ -150,17 +150,17 @@ def run(args: argparse.Namespace) -> Report:
         t_end_s=args.t_end, solver=args.solver, rtol=args.rtol, max_steps=args.max_steps, cable_damping_s=args.cable_damping,
         hook_contact=args.hook_contact, n_span_elements=args.span_elements, n_fine=args.fine_elements,
     )
-    sweep_kwargs = dict(
-        phase=args.phase,
-        fidelity=args.fidelity,
-        out=out,
-        seed=args.seed,
-        batch_size=args.batch_size,
-        process_index=p_index,
-        process_count=p_count,
-        progress=not (args.no_progress or args.json),
+    sweep_kwargs = {
+        "phase": args.phase,
+        "fidelity": args.fidelity,
+        "out": out,
+        "seed": args.seed,
+        "batch_size": args.batch_size,
+        "process_index": p_index,
+        "process_count": p_count,
+        "progress": not (args.no_progress or args.json),
         **case_kwargs,
-    )
+    }
     confirmation = None
     if args.confirm:
         confirmation = run_confirmation(args.confirm, args.scenario, args.n, band=args.band, **sweep_kwargs)
@@ -181,10 +181,10 @@ def run(args: argparse.Namespace) -> Report:
     summary["wind_applied"] = True
     title = f"scenario {args.scenario}, {args.phase} phase, fidelity {args.fidelity}"
     if confirmation is not None:
-        summary["confirmation"] = dict(
-            screened=args.confirm, band=args.band, cases=confirmation["cases"].tolist(), turned=confirmation["turned"],
-            merged_csv=confirmation["merged_csv"],
-        )  # fmt: skip
+        summary["confirmation"] = {
+            "screened": args.confirm, "band": args.band, "cases": confirmation["cases"].tolist(),
+            "turned": confirmation["turned"], "merged_csv": confirmation["merged_csv"],
+        }  # fmt: skip
         title += f", {args.confirm} with {len(confirmation['cases'])} cases confirmed"
     if args.plot:
         summary["plots"] = [plot_landing_plane(table, f"{args.plot}_plane.png", f"{title}, {summary['n_cases']} cases")]
@@ -199,12 +199,10 @@ def run(args: argparse.Namespace) -> Report:
         summary["plots"].append(plot_histories(hist, f"{args.plot}_histories.png", f"{title}: passive phase, first {k} cases"))
     lines = [summary_markdown(summary, title), f"rows in {out}"]
     if confirmation is not None:
-        turned = confirmation["turned"]
-        lines += [
-            f"confirmed {len(confirmation['cases'])} cases within {args.band:g} of a limit (or failed, or not stopped): "
-            f"{', '.join(map(str, confirmation['cases'].tolist())) or 'none'}; verdicts turned: {', '.join(map(str, turned)) or 'none'}",
-            f"merged table in {confirmation['merged_csv']}",
-        ]
+        cases = ", ".join(map(str, confirmation["cases"].tolist())) or "none"
+        turned = ", ".join(map(str, confirmation["turned"])) or "none"
+        lines.append(f"confirmed {len(confirmation['cases'])} cases within {args.band:g} of a limit (or failed, or not stopped): {cases}; verdicts turned: {turned}")
+        lines.append(f"merged table in {confirmation['merged_csv']}")
     lines += [f"plot written to {path}" for path in summary.get("plots", [])]
     return Report(summary, "\n".join(lines), ok=not summary["n_failed"])
 
