@@ -13,10 +13,15 @@ The design case (Table 1) at the full level with the scenes' defaults (the hook 
    tolerances for those numbers only), against a reference at rtol = atol = 1e-6: steps, wall time
    after compilation, the criteria and the energy budget.
 
-Writes ``bench_step_limit.{json,md}``. Usage::
+3. **The energy integrals weighted** (``--energy-weights``): the level's rtol with the energy
+   integrals' scaled errors multiplied by each weight, on a mesh of ``--mesh``: does the energy
+   budget close without shorter steps for the mechanics?
+
+Writes ``bench_step_limit.{json,md}`` (``bench_step_limit_energy_<span>_<fine>.{json,md}`` for 3). Usage::
 
     python experiments/bench_step_limit.py            # 1 s after capture
     python experiments/bench_step_limit.py --t-end 0.2 --out /tmp/quick
+    python experiments/bench_step_limit.py --mesh 80 16 --energy-weights 1 10 100
 """
 
 from __future__ import annotations
@@ -34,7 +39,11 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxcable.arresting.landing import LEVEL_STEP_CONTROL, level_solver_settings
-from jaxcable.arresting.passive import passive_landing_scene
+from jaxcable.arresting.passive import (
+    DEFAULT_FINE_ELEMENTS,
+    DEFAULT_SPAN_ELEMENTS,
+    passive_landing_scene,
+)
 from jaxcable.core.config import enable_x64
 from jaxcable.core.rosenbrock import RosenbrockW
 
@@ -47,15 +56,22 @@ RUNS = ((1e-6, 1.0), (1e-5, 1.0), (1e-5, 0.3), (1e-5, 0.1), (1e-4, 1.0))
 
 
 class WeightedRMS(eqx.Module):
-    """diffrax's RMS norm of the scaled error, with the cable nodes' velocities
-    (``state.cables.qdot.r``) weighted by ``w`` (an array: one compiled program for every weight)."""
+    """diffrax's RMS norm of the scaled error, with some leaves weighted by ``w`` (an array: one
+    compiled program for every weight): ``which="nodes"``, the cable nodes' velocities
+    (``state.cables.qdot.r``); ``which="energy"``, the energy integrals (``cables.dissipated``,
+    ``contact_work``, ``hook_damping_work``, ``aero_work``)."""
 
     w: jax.Array
+    which: str = eqx.field(static=True, default="nodes")
 
     def __call__(self, e):
         squares = jax.tree_util.tree_map(lambda x: jnp.sum(x**2), e)
         n = sum(x.size for x in jax.tree_util.tree_leaves(e))
-        total = sum(jax.tree_util.tree_leaves(squares)) + (self.w**2 - 1.0) * squares.cables.qdot.r
+        if self.which == "nodes":
+            part = squares.cables.qdot.r
+        else:
+            part = squares.cables.dissipated + squares.contact_work + squares.hook_damping_work + squares.aero_work
+        total = sum(jax.tree_util.tree_leaves(squares)) + (self.w**2 - 1.0) * part
         return jnp.sqrt(total / n)
 
 
@@ -194,14 +210,61 @@ def write_md(data, path):
     _report.write_lines(path, lines)
 
 
+def energy_weights(scene, t_end, rtol, max_steps, weights) -> list:
+    """The level's rtol with the energy integrals' errors weighted by each of ``weights``."""
+    rows = []
+    solver = RosenbrockW(linearise=scene.stiff_linearisation)
+    tol = jnp.asarray(rtol)
+    for w in weights:
+        c = _controller(scene, tol, tol, WeightedRMS(jnp.asarray(w), which="energy"))
+        if not rows:
+            _solve(scene, t_end, solver, c, max_steps)
+        res, wall = _solve(scene, t_end, solver, c, max_steps)
+        row = {"weight": w, "wall_s": wall, "steps": int(res.num_steps), "rejected": int(res.num_rejected), "status": int(res.status)}
+        row.update({k: float(res.outputs[k]) for k in KEYS})
+        rows.append(row)
+        print(row, flush=True)
+    return rows
+
+
+def write_energy_md(data, path):
+    lines = [f"# The energy integrals weighted in the error norm: full level, design case, {data['t_end_s']} s", ""]
+    lines += _report.header(data) + [""]
+    lines += [
+        (f"rosw at rtol = atol = {data['rtol']:g}, {data['mesh'][0]} span elements ({data['mesh'][1]} fine); `w`: weight of the "
+         "energy integrals' scaled errors (`cables.dissipated`, `contact_work`, `hook_damping_work`, `aero_work`)."),
+        "",
+        "| w | steps (rejected) | wall [s] | z_max [m] | a_max [g] | sigma_max [MPa] | energy budget |",
+        "|---:|---|---:|---:|---:|---:|---:|",
+    ]  # fmt: skip
+    for r in data["runs"]:
+        lines.append(
+            f"| {r['weight']:g} | {r['steps']} ({r['rejected']}) | {r['wall_s']:.1f} | {r['z_max_m']:.4f} | {r['a_max_g']:.4f} | "
+            f"{r['sigma_max_mpa']:.2f} | {r['energy_budget_error']:.1e} |"
+        )
+    _report.write_lines(path, lines)
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--t-end", type=float, default=1.0, help="time after capture [s]")
+    p.add_argument("--mesh", nargs=2, type=int, metavar=("SPAN", "FINE"), default=None,
+                   help="span elements and fine ones (default: the scenes')")
+    p.add_argument("--energy-weights", nargs="+", type=float, default=None, metavar="W",
+                   help="only: the level's rtol with the energy integrals weighted by each W; writes bench_step_limit_energy_<span>_<fine>")
     p.add_argument("--out", default=None)
     args = p.parse_args()
     enable_x64()
     out = _report.output_dir(args.out)
-    scene = passive_landing_scene("full", t_end_s=args.t_end)
+    mesh = {} if args.mesh is None else {"n_span_elements": args.mesh[0], "n_fine": args.mesh[1]}
+    scene = passive_landing_scene("full", t_end_s=args.t_end, **mesh)
+    if args.energy_weights is not None:
+        _, rtol, _, max_steps = level_solver_settings("full")
+        span = args.mesh or (DEFAULT_SPAN_ELEMENTS, DEFAULT_FINE_ELEMENTS)
+        data = _report.start(t_end_s=args.t_end, rtol=rtol, mesh=list(span))
+        data["runs"] = energy_weights(scene, args.t_end, rtol, max_steps, args.energy_weights)
+        _report.finish(data, out, f"{STEM}_energy_{span[0]}_{span[1]}", write_energy_md)
+        return
     solver_name, rtol, atol, max_steps = level_solver_settings("full")
     assert solver_name == "rosw", solver_name
     data = _report.start(t_end_s=args.t_end, rtol=rtol, atol=atol)
