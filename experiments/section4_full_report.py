@@ -4,10 +4,12 @@ test).
 The 3 x 100 two-phase cases at the full level take hours on a 2-core CPU (about a minute a case once
 compiled), so they run as resumable sweeps, one CSV a scenario::
 
-    jaxcable sweep --phase full --fidelity full --cable-damping calibrated --scenario I --n 100 \\
-        --out experiments/results/sweep_two_phase_full_calibrated_I_n100.csv
+    jaxcable sweep --phase full --fidelity full --scenario I --n 100 \\
+        --out experiments/results/sweep_two_phase_full_node_I_n100.csv
 
-(rerun the same command to go on after an interruption). This script reads the CSVs that exist and
+(rerun the same command to go on after an interruption; the former default's records,
+``sweep_two_phase_full_calibrated_*``, ran with ``--hook-contact capsule --span-elements 32
+--fine-elements 16``). This script reads the CSVs that exist and
 writes, for the cases done so far, the summary in the form of Tables 5-7 and 9 (``jaxcable sweep``'s
 own summary), Fig 21's criteria over the landing plane, and the mechanism behind the a_max failures:
 a_max against the capture's distance from the frame's centre, beside the design case's value at the
