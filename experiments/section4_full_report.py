@@ -28,6 +28,7 @@ import argparse
 
 import _report
 import numpy as np
+from section4_node_vs_capsule import NODE, NODE_CONFIRMED, first_csv
 
 from jaxcable.arresting.calibration import CALIBRATED_CABLE_DAMPING_S
 from jaxcable.arresting.passive import LandingCriteria
@@ -41,8 +42,8 @@ STEM = "section4_full"
 CSV = "sweep_two_phase_full_calibrated_{}_n100.csv"
 MODELS = {
     "capsule": {"csvs": (CSV,), "stem": STEM, "label": "the capsule contact on 32 span elements, the default when recorded"},
-    "node": {"csvs": ("sweep_two_phase_full_node_{}_n100.csv", "sweep_two_phase_full_node_{}_n100_confirm_merged.csv"),
-             "stem": STEM + "_node", "label": "the hook as a sliding node on 64 span elements, the default"},
+    "node": {"csvs": (NODE, NODE_CONFIRMED), "stem": STEM + "_node",
+             "label": "the hook as a sliding node on 64 span elements, the default"},
 }  # fmt: skip
 """The recorded sweeps, by hook model: the CSVs tried in turn (the defaults' sweep, else a screening
 sweep with its cases near a limit confirmed at the defaults, docs/sweeps.md), the report's stem."""
@@ -131,11 +132,9 @@ def main():
     data = _report.start(precision=_report.precision(), scenarios={}, model_label=model["label"], stem=stem)
     tables, rigid = {}, {}
     for scenario in args.scenarios:
-        found = [_report.RESULTS / name.format(scenario) for name in model["csvs"]]
-        found = [c for c in found if c.exists() and c.stat().st_size > 0]
-        if not found:
+        csv = first_csv(_report.RESULTS, model["csvs"], scenario)
+        if csv is None:
             continue
-        csv = found[0]
         table = read_sweep_csv(csv)
         if not len(table.get("case", [])):
             continue

@@ -37,6 +37,16 @@ KEYS = ("z_max_m", "a_max_g", "sigma_max_mpa")
 FLAGS = ("success", "captured", "criteria_met", "z_ok", "a_ok", "sigma_ok")
 
 
+def first_csv(res: Path, names, scenario: str) -> Path | None:
+    """The first of the CSVs ``names`` (formatted with ``scenario``) in ``res`` that holds something,
+    or None: for the default model, ``(NODE, NODE_CONFIRMED)``."""
+    for name in names:
+        path = res / name.format(scenario)
+        if path.exists() and path.stat().st_size > 0:
+            return path
+    return None
+
+
 def _bool(col):
     return np.asarray([str(v).strip().lower() in ("true", "1", "1.0") for v in col])
 
@@ -148,11 +158,9 @@ def main():
     out = _report.output_dir(args.out)
     data = _report.start(scenarios={})
     for s in args.scenarios:
-        node_csv, capsule_csv = res / NODE.format(s), res / CAPSULE.format(s)
-        if not node_csv.exists() and (res / NODE_CONFIRMED.format(s)).exists():
-            node_csv = res / NODE_CONFIRMED.format(s)
-        if not (node_csv.exists() and capsule_csv.exists()):
-            print(f"scenario {s}: {node_csv.name if not node_csv.exists() else capsule_csv.name} missing, skipped")
+        node_csv, capsule_csv = first_csv(res, (NODE, NODE_CONFIRMED), s), res / CAPSULE.format(s)
+        if node_csv is None or not capsule_csv.exists():
+            print(f"scenario {s}: {NODE.format(s) if node_csv is None else capsule_csv.name} missing, skipped")
             continue
         try:
             node = read_sweep_csv(node_csv)

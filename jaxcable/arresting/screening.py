@@ -24,7 +24,12 @@ from pathlib import Path
 import numpy as np
 
 from jaxcable.arresting.passive import LandingCriteria
-from jaxcable.arresting.sweep import CRITERIA, qmc_case_fn, run_qmc_sweep
+from jaxcable.arresting.sweep import (
+    CRITERIA,
+    qmc_case_fn,
+    run_qmc_sweep,
+    sweep_identity,
+)
 from jaxcable.core.validation import check_positive
 from jaxcable.studies.sweep import merge_sweep_csvs, read_sidecar, read_sweep_csv
 
@@ -57,11 +62,11 @@ def cases_to_confirm(table: dict, band: float = SCREENING_BAND, criteria: Landin
     return np.asarray(table["case"], dtype=int)[near]
 
 
-def check_screened(screened_csv, identity: dict, case_fn_identity: dict, n: int) -> None:
+def check_screened(screened_csv, identity: dict, case_fn_identity: dict, n: int) -> dict:
     """Refuse to confirm ``screened_csv`` with a sweep it was not screening for: its sidecar's
     identity (scenario, phase, seed, process slice) must equal ``identity``, its case function's
     must equal ``case_fn_identity`` but for :data:`SCREENING_SETTINGS`, and it must hold ``n``
-    cases (a screening sweep still running is refused: finish it first)."""
+    cases (a screening sweep still running is refused: finish it first). Returns its table."""
     side = read_sidecar(screened_csv)
     if side is None:
         raise ValueError(f"{screened_csv}: no sidecar ({screened_csv}.json); not a sweep written by jaxcable")
@@ -82,6 +87,7 @@ def check_screened(screened_csv, identity: dict, case_fn_identity: dict, n: int)
     done = len(table["case"])
     if side.get("n") != n or done != n:
         raise ValueError(f"{screened_csv} holds {done} of n = {side.get('n')} cases; confirming needs all {n} (resume it first)")
+    return table
 
 
 def merged_path(out) -> Path:
@@ -118,9 +124,8 @@ def run_confirmation(
     screened_csv = Path(screened_csv)
     if Path(out).resolve() == screened_csv.resolve():
         raise ValueError(f"out = {out} is the screened sweep itself; write the confirmation to another file")
-    identity = {"scenario": scenario, "phase": phase, "seed": int(seed), "process_index": int(process_index), "process_count": int(process_count)}
-    check_screened(screened_csv, identity, qmc_case_fn(scenario, phase, fidelity, seed, **case_kwargs).describe(), n)
-    screened = read_sweep_csv(screened_csv)
+    identity = sweep_identity(scenario, phase, seed, process_index, process_count)
+    screened = check_screened(screened_csv, identity, qmc_case_fn(scenario, phase, fidelity, seed, **case_kwargs).describe(), n)
     cases = cases_to_confirm(screened, band)
     confirmed = None
     if cases.size:

@@ -94,6 +94,7 @@ __all__ = [
     "run_qmc_sweep",
     "summarize_sweep",
     "summary_markdown",
+    "sweep_identity",
 ]
 
 SWEEP_FIDELITIES = ("rigid", "ale", "full")
@@ -465,6 +466,14 @@ def check_batch_size(batch_size: int, fidelity: str, devices=None) -> None:
         )
 
 
+def sweep_identity(scenario: str, phase: str, seed: int = 0, process_index: int = 0, process_count: int = 1) -> dict:
+    """The identity a section IV sweep stores in its sidecar (and a resume or a confirmation checks):
+    scenario, phase, seed and this process's slice."""
+    return dict(
+        scenario=scenario, phase=phase, seed=int(seed), process_index=int(process_index), process_count=int(process_count)
+    )
+
+
 def run_qmc_sweep(
     scenario: str = "I",
     n: int = 100,
@@ -496,9 +505,7 @@ def run_qmc_sweep(
     check_batch_size(batch_size, fidelity, devices)
     case_fn = qmc_case_fn(scenario, phase, fidelity, seed, **case_kwargs)
     samples = halton_samples(n, scenario, phase, seed)
-    identity = dict(
-        scenario=scenario, phase=phase, seed=int(seed), process_index=int(process_index), process_count=int(process_count)
-    )
+    identity = sweep_identity(scenario, phase, seed, process_index, process_count)
     stored_n = (read_sidecar(out) or {}).get("n")
     if stored_n is not None and n < stored_n:
         raise ValueError(f"{out} holds a sweep of n = {stored_n}; resuming with n = {n} < {stored_n} is refused")
