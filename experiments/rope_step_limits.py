@@ -23,12 +23,18 @@ kilonewtons (~500 rad/s) suggested an implicit method would take fewer. Two meas
     evaluation when the saved parts a-c ran) against the default windows (the vector field computed on the smallest of 64, 128, 256,
     512 links that holds the deployed rope): steps, error against Tsit5 at 1e-8, the first call
     (tracing and compiling included) and the fastest of ``--repeats`` interleaved calls.
+(e) The explicit solver at 1 m segments with ``jaxcable throw``'s settings (windows, PI
+    controller): Tsit5 against Bosh3 (3 evaluations a step), Dopri5 and Dopri8 (12 new evaluations a
+    step, order 8) at the tolerances of ``--solver-settings``: steps, error against Tsit5 at 1e-8,
+    first call and the fastest of ``--repeats`` interleaved calls. If the completions alone set
+    the steps, the cheapest step would win; if the accuracy between them does, the higher order.
 
 Writes ``rope_step_limits.json/.md``. Usage (about 3 min on 2 cores):
 
     python experiments/rope_step_limits.py
     python experiments/rope_step_limits.py --quick     # 5 m segments, two tolerances, 10 m dense
     python experiments/rope_step_limits.py --parts d   # only (d); the others kept from the saved JSON
+    python experiments/rope_step_limits.py --parts e   # only (e), about 5 min
 """
 
 from __future__ import annotations
@@ -118,6 +124,33 @@ def windows(segment_m, rtols, repeats):
     return rows, int(ref.num_steps)
 
 
+SOLVER_SETTINGS = ("tsit5:1e-4", "tsit5:3e-4", "bosh3:1e-4", "bosh3:1e-5", "dopri5:1e-4", "dopri8:1e-4", "dopri8:1e-3")
+
+
+def solvers(segment_m, settings, repeats):
+    """Part (e): each ``solver:rtol`` of ``settings`` with the default windows and the PI controller; rows."""
+    scene = line_throwing_scene(angle_deg=30.0, segment_length_m=segment_m)
+    pcoeff, icoeff = CONTROLLERS["PI"]
+
+    def run(solver, rtol, **kw):
+        kw = kw or {"pcoeff": pcoeff, "icoeff": icoeff}
+        r = jaxcable.simulate(scene, T1_S, solver=solver, rtol=rtol, atol=rtol, **kw)
+        jax.block_until_ready(r.t_final)
+        return r
+
+    ref = run("tsit5", 1e-8, pcoeff=0.0, icoeff=1.0)
+    pairs = [(s.split(":")[0], float(s.split(":")[1])) for s in settings]
+    results, first, walls = _interleaved(run, pairs, repeats)
+    base = min(walls[pairs[0]])
+    rows = []
+    for (solver, rtol), r in results.items():
+        rows.append({"segment_m": segment_m, "solver": solver, "rtol": rtol, "steps": int(r.num_steps),
+                     "rejected": int(r.num_rejected), "error": _error(r, ref), "first_call_s": first[(solver, rtol)],
+                     "run_s": min(walls[(solver, rtol)]), "runs_s": walls[(solver, rtol)],
+                     "run_ratio": min(walls[(solver, rtol)]) / base})  # fmt: skip
+    return rows, int(ref.num_steps)
+
+
 def flight(segment_m, solver, rtol):
     """One 30 deg flight to impact, timed on the second (compiled) call; returns a row."""
     scene = line_throwing_scene(angle_deg=30.0, segment_length_m=segment_m)
@@ -143,7 +176,8 @@ def flight(segment_m, solver, rtol):
 
 
 PARTS = {"a": ("tolerance",), "b": ("dense",), "c": ("controllers", "controllers_reference_steps", "controllers_repeats"),
-         "d": ("windows", "windows_reference_steps", "windows_repeats")}  # fmt: skip
+         "d": ("windows", "windows_reference_steps", "windows_repeats"),
+         "e": ("solvers", "solvers_reference_steps", "solvers_repeats")}  # fmt: skip
 
 
 def _kept_list(kept):
@@ -225,6 +259,18 @@ def write_md(data, path):
                 f"{r['steps']} | {r['rejected']} | {r['error']:.1e} | {r['first_call_s']:.1f} | {r['run_s']:.2f} | "
                 f"{r['run_ratio']:.2f} |"
             )
+    if data.get("solvers"):
+        lines += ["", "## (e) The explicit solver (windows, PI controller)", "",
+                  ("Error: as in (c), against Tsit5 at 1e-8 "
+                   f"({data['solvers_reference_steps']} steps). First call: tracing, compiling and one run. Run: the "
+                   f"fastest of {data['solvers_repeats']} calls, the settings interleaved; ratio: to the first row."), "",
+                  "| segment | solver | rtol = atol | steps | rejected | error | first call [s] | run [s] | ratio |",
+                  "|---:|---|---:|---:|---:|---:|---:|---:|---:|"]  # fmt: skip
+        for r in data["solvers"]:
+            lines.append(
+                f"| {r['segment_m']:g} m | {r['solver']} | {r['rtol']:.0e} | {r['steps']} | {r['rejected']} | "
+                f"{r['error']:.1e} | {r['first_call_s']:.1f} | {r['run_s']:.2f} | {r['run_ratio']:.2f} |"
+            )
     _report.write_lines(path, lines)
 
 
@@ -234,7 +280,8 @@ def main():
     p.add_argument("--rtols", nargs="+", type=float, default=[1e-3, 1e-4, 1e-5, 1e-6])
     p.add_argument("--dense-segments", nargs="+", type=float, default=[10.0, 5.0])
     p.add_argument("--controller-rtols", nargs="+", type=float, default=[1e-4, 1e-3], help="tolerances of parts (c), (d)")
-    p.add_argument("--repeats", type=int, default=5, help="timed calls per setting in parts (c), (d) (default 5)")
+    p.add_argument("--repeats", type=int, default=5, help="timed calls per setting in parts (c), (d), (e) (default 5)")
+    p.add_argument("--solver-settings", nargs="+", default=list(SOLVER_SETTINGS), help="solver:rtol pairs of part (e); the first is the ratios' base")
     p.add_argument("--parts", nargs="+", default=list(PARTS), choices=list(PARTS),
                    help="parts to run (default all); the others are kept from the saved JSON")  # fmt: skip
     p.add_argument("--quick", action="store_true")
@@ -244,7 +291,7 @@ def main():
     if args.quick:
         args.segment, args.rtols, args.dense_segments = 5.0, [1e-3, 1e-4], [10.0]
     out = _report.output_dir(args.out, args.quick)
-    data = _report.start(tolerance=[], dense=[], controllers=[], windows=[])
+    data = _report.start(tolerance=[], dense=[], controllers=[], windows=[], solvers=[])
     saved = out / f"{STEM}.json"
     if set(args.parts) != set(PARTS) and saved.exists():
         _keep(data, json.loads(saved.read_text()), args.parts)
@@ -255,6 +302,12 @@ def main():
             for row in data[key]:
                 print(row, flush=True)
             _report.save(data, out, STEM)
+    if "e" in args.parts:
+        data["solvers"], data["solvers_reference_steps"] = solvers(args.segment, args.solver_settings, args.repeats)
+        data["solvers_repeats"] = args.repeats
+        for row in data["solvers"]:
+            print(row, flush=True)
+        _report.save(data, out, STEM)
     for rtol in args.rtols if "a" in args.parts else []:
         data["tolerance"].append(flight(args.segment, "tsit5", rtol))
         print(data["tolerance"][-1], flush=True)
