@@ -96,7 +96,7 @@ from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.cable_sets import AleCables, HookPoints, MasslessCables, throat_weights
 from jaxcable.arresting.landing_rocket import flexible_landing_rocket, rigid_landing_rocket
 from jaxcable.arresting.layout import ArrestingLayout, CaptureState, check_hooks_inside_frame
-from jaxcable.arresting.stiff import CableLinearisation, ExplicitLinearisation, HingeCableCoupling, HookCoupling
+from jaxcable.arresting.stiff import CableLinearisation, ExplicitLinearisation, HookCoupling
 from jaxcable.components.contact import ContactLaw
 from jaxcable.components.multibody import point_kinematics
 from jaxcable.components.wind import AeroCoefficients, WindField, rocket_aero_loads
@@ -257,21 +257,12 @@ class PassiveState(eqx.Module):
     """Work done so far by the air on the rocket and the cables [J] (zero in still air)."""
 
 
-HINGE_CABLE_COLUMNS = False
-"""Whether the W-method's ``J`` holds the hinge rows' columns on the cables (the hooks' contact
-torques as functions of the cable nodes they touch): :class:`.stiff.HingeCableCoupling`."""
-
-
 def _hinge_rows(state):
     return state.rocket.hinge_angle, state.rocket.hinge_rate
 
 
 def _rocket_rows(state):
     return state.rocket
-
-
-def _cables_of(state):
-    return state.cables
 
 
 def _cable_rows(state):
@@ -352,7 +343,7 @@ class PassiveLandingScene(AbstractScene):
             aero_work=aux["aero_power_W"],
         )
 
-    def stiff_linearisation(self, t, state, hook_coupling: bool = True, hinge_cable: bool | None = None):
+    def stiff_linearisation(self, t, state, hook_coupling: bool = True):
         """The stiff part of the Jacobian for ``simulate(solver="rosw")``
         (:mod:`jaxcable.arresting.stiff`): the ALE cables' internal nodes and border, the hooks'
         hinges, and (``hook_coupling``) the cable rows' columns on the rocket's coordinates through
@@ -364,14 +355,11 @@ class PassiveLandingScene(AbstractScene):
         kin = self.cables.kinematics(state.cables)
         picked = self.cables.contact_pairs_picked(kin, hooks, stiff=True)
         blocks = self.cables.stiff_blocks(state.cables, hooks, t, kin=kin, picked=picked)
-        hinge_cable = HINGE_CABLE_COLUMNS if hinge_cable is None else hinge_cable
-        hinged = state.rocket.hinge_rate.shape[0] > 0
-        hinge = self._hinge_jacobian(t, state, kin, picked) if hinged else None
-        columns = self._hinge_cable_columns(state, kin, picked) if hinged and hinge_cable else None
+        hinge = self._hinge_jacobian(t, state, kin, picked) if state.rocket.hinge_rate.shape[0] else None
         coupling = HookCoupling.at(self.cables, self.rocket, state.cables, state.rocket, rows=_rocket_rows, kin=kin, picked=picked) if hook_coupling else None  # fmt: skip
         return CableLinearisation(
             blocks, rows=_cable_rows, active=self.cables.subsystems.route.active_slots, hinge=hinge,
-            hinge_rows=_hinge_rows if hinge is not None else None, coupling=coupling, hinge_cable=columns,
+            hinge_rows=_hinge_rows if hinge is not None else None, coupling=coupling,
         )  # fmt: skip
 
     def _hinge_jacobian(self, t, state, kin=None, picked=None):
@@ -421,20 +409,6 @@ class PassiveLandingScene(AbstractScene):
         K = g * (dtau[0] - p.hook_rotational_stiffness_N_m_per_rad)
         C = g * (dtau[1] - p.hook_rotational_damping_N_m_s_per_rad)
         return jnp.diag(K), jnp.diag(C)
-
-    def _hinge_cable_columns(self, state, kin, picked):
-        """The hinge rows' columns on the cables (:class:`.stiff.HingeCableCoupling`): the contact
-        torques' derivative in the cables' state times the hinges' inverse-mass rows."""
-        rocket = state.rocket
-        phi, rate = _hinge_rows(state)
-        one, zero = jnp.ones_like(phi), jnp.zeros_like(phi)
-
-        def positions(phi_):
-            return self.hooks(eqx.tree_at(lambda s: s.hinge_angle, rocket, phi_)).positions
-
-        lever = jax.jvp(positions, (phi,), (one,))[1]
-        g = jax.jvp(lambda tau: self.rocket.derivative(rocket, self.gravity, hinge_torques_N_m=tau).hinge_rate, (zero,), (one,))[1]
-        return HingeCableCoupling(self.cables, state.cables, self.hooks(rocket), lever, picked, g, cables_of=_cables_of)
 
     def num_saved(self, t1) -> int:
         """Number of default saved samples over ``[0, t1]``: ``n_save`` if given, else

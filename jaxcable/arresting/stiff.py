@@ -29,7 +29,7 @@ from jaxcable.arresting.cable_sets import HookPoints
 from jaxcable.core import banded
 from jaxcable.core.rosenbrock import DenseLinearisation
 
-__all__ = ["CableLinearisation", "ExplicitLinearisation", "HingeCableCoupling", "HookCoupling", "dense_reference"]
+__all__ = ["CableLinearisation", "ExplicitLinearisation", "HookCoupling", "dense_reference"]
 
 
 def _mass_matvec(M, x):
@@ -74,11 +74,6 @@ class CableLinearisation(eqx.Module):
     coupling: "HookCoupling | None" = None
     """The cable rows' columns on the rocket's coordinates (the contact forces move with the
     hooks), applied as a JVP per solve; None: the hooks held fixed (the rocket's columns zero)."""
-    hinge_cable: "HingeCableCoupling | None" = None
-    """The hinge rows' columns on the cables' coordinates (the contact torques move with the cable
-    nodes under the hooks), or None (zero: the hinge rows see fixed cables). With them the hinges
-    and the cables are solved together: a Schur complement on the 4 hinge rates, from 4 more
-    solves of the cables' factored system per factorisation and 5 JVPs of the contact per stage."""
 
     def factor(self, beta):
         B = self.blocks
@@ -142,41 +137,15 @@ class _CableFactors(eqx.Module):
     beta: jax.Array
 
     def solve(self, rhs):
-        beta = self.beta
-        out = jax.tree_util.tree_map(lambda b: b / beta, rhs)
-        if self.lin.hinge is None:
-            return self._cables(rhs, out)
-        # the hooks' hinges: (beta^2 I - beta C_h - K_h) x_rate = beta b_rate + K_h b_angle (+ beta E x_cables)
-        K_h, C_h = self.lin.hinge
-        b_a, b_w = self.lin.hinge_rows(rhs)
-        A_h = (beta**2) * jnp.eye(K_h.shape[0], dtype=K_h.dtype) - beta * C_h - K_h
-        A_inv = _small_inverse(A_h[None])[0]
-        x_w0 = A_inv @ (beta * b_w + K_h @ b_a)
-        with_hinge = lambda x_w: eqx.tree_at(self.lin.hinge_rows, out, ((b_a + x_w) / beta, x_w))
-        sol0 = self._cables(rhs, with_hinge(x_w0))
-        if self.lin.hinge_cable is None:
-            return sol0
-        # hinge rows with columns on the cables: x_w = x_w0 + d, the cables' solution affine in d
-        # (through the hooks' coupling); (I - beta A_inv E Y) d = beta A_inv E x_cables0
-        zero_rhs = jax.tree_util.tree_map(jnp.zeros_like, rhs)
-        zero_out = jax.tree_util.tree_map(jnp.zeros_like, out)
-        eye = jnp.eye(K_h.shape[0], dtype=K_h.dtype)
-
-        def response(e):  # the cables' solution to a unit hinge rate e (angle e / beta), zero rhs
-            return self._cables(zero_rhs, eqx.tree_at(self.lin.hinge_rows, zero_out, (e / beta, e)))
-
-        E = self.lin.hinge_cable.torque_accel_jvp
-        EY = jax.vmap(lambda e: E(response(e)), out_axes=-1)(eye)  # (4, 4): column k = E Y_k
-        d = jnp.linalg.solve(eye - beta * A_inv @ EY, beta * A_inv @ E(sol0))
-        Y = jax.vmap(response)(eye)
-        cables = jax.tree_util.tree_map(lambda a, y: a + jnp.tensordot(d, y, axes=1), self.lin.rows(sol0), self.lin.rows(Y))
-        x_w = x_w0 + d
-        sol = eqx.tree_at(self.lin.rows, sol0, tuple(cables))
-        return eqx.tree_at(self.lin.hinge_rows, sol, ((b_a + x_w) / beta, x_w))
-
-    def _cables(self, rhs, out):
-        """The cables' rows of the solution with the rocket's rows of ``out`` already solved."""
         beta, B = self.beta, self.lin.blocks
+        out = jax.tree_util.tree_map(lambda b: b / beta, rhs)
+        if self.lin.hinge is not None:
+            # the hooks' hinges: (beta^2 I - beta C_h - K_h) x_rate = beta b_rate + K_h b_angle
+            K_h, C_h = self.lin.hinge
+            b_a, b_w = self.lin.hinge_rows(rhs)
+            A_h = (beta**2) * jnp.eye(K_h.shape[0], dtype=K_h.dtype) - beta * C_h - K_h
+            x_w = _zz(_small_inverse(A_h[None]), (beta * b_w + K_h @ b_a)[None])[0]
+            out = eqx.tree_at(self.lin.hinge_rows, out, ((b_a + x_w) / beta, x_w))
         bq_r, bq_s, bq_h, bq_u, bv_r, bv_s, bv_h, bv_u = self.lin.rows(rhs)
         bq_z, bv_z = _slow(bq_s, bq_h, bq_u), _slow(bv_s, bv_h, bv_u)
         g_r = (
@@ -207,32 +176,6 @@ class _CableFactors(eqx.Module):
             x_r, x_z[..., :n_p], x_z[..., n_p:-1].reshape(h_shape), x_z[..., -1],
         )  # fmt: skip
         return eqx.tree_at(self.lin.rows, out, new)
-
-
-class HingeCableCoupling(eqx.Module):
-    """The hinges' accelerations as functions of the cables' state, through the contact on the
-    hooks, linearised at one state: ``torque_accel_jvp(x)`` is ``E x`` (4,) with ``E = d phi_dd /
-    d(cable state)``, for ``x`` a tangent of the whole scene state (its cable part is used): ``g``
-    times the JVP of the contact torques ``sum_p F_p . dP_p/dphi`` in the cables' state, the hooks
-    held where they are."""
-
-    cables: eqx.Module
-    cable_state: eqx.Module
-    hooks: HookPoints
-    lever: jax.Array
-    """``dP/dphi`` (4, 3, 3) of the hooks' points."""
-    picked: jax.Array
-    g: jax.Array
-    """The hinges' rows of the inverse mass matrix times a unit torque (4,)."""
-    cables_of: Callable = eqx.field(static=True)
-    """``cables_of(state) -> the cables' state`` within the scene's state."""
-
-    def torques(self, cable_state):
-        f = self.cables.contact_on_hooks(self.cables.kinematics(cable_state), self.hooks, self.picked)
-        return jnp.sum(f * self.lever, axis=(-2, -1))
-
-    def torque_accel_jvp(self, x):
-        return self.g * jax.jvp(self.torques, (self.cable_state,), (self.cables_of(x),))[1]
 
 
 class HookCoupling(eqx.Module):
