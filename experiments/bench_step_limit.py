@@ -59,7 +59,8 @@ class WeightedRMS(eqx.Module):
     """diffrax's RMS norm of the scaled error, with some leaves weighted by ``w`` (an array: one
     compiled program for every weight): ``which="nodes"``, the cable nodes' velocities
     (``state.cables.qdot.r``); ``which="energy"``, the energy integrals (``cables.dissipated``,
-    ``contact_work``, ``hook_damping_work``, ``aero_work``)."""
+    ``contact_work``, ``hook_damping_work``, ``aero_work``); ``which="rocket"``, the rocket bodies'
+    velocities (``state.rocket.v``)."""
 
     w: jax.Array
     which: str = eqx.field(static=True, default="nodes")
@@ -69,6 +70,8 @@ class WeightedRMS(eqx.Module):
         n = sum(x.size for x in jax.tree_util.tree_leaves(e))
         if self.which == "nodes":
             part = squares.cables.qdot.r
+        elif self.which == "rocket":
+            part = squares.rocket.v
         else:
             part = squares.cables.dissipated + squares.contact_work + squares.hook_damping_work + squares.aero_work
         total = sum(jax.tree_util.tree_leaves(squares)) + (self.w**2 - 1.0) * part
@@ -210,13 +213,14 @@ def write_md(data, path):
     _report.write_lines(path, lines)
 
 
-def energy_weights(scene, t_end, rtol, max_steps, weights) -> list:
-    """The level's rtol with the energy integrals' errors weighted by each of ``weights``."""
+def energy_weights(scene, t_end, rtol, max_steps, weights, which="energy") -> list:
+    """The level's rtol with the energy integrals' errors (``which="rocket"``: the rocket bodies'
+    velocities) weighted by each of ``weights``."""
     rows = []
     solver = RosenbrockW(linearise=scene.stiff_linearisation)
     tol = jnp.asarray(rtol)
     for w in weights:
-        c = _controller(scene, tol, tol, WeightedRMS(jnp.asarray(w), which="energy"))
+        c = _controller(scene, tol, tol, WeightedRMS(jnp.asarray(w), which=which))
         if not rows:
             _solve(scene, t_end, solver, c, max_steps)
         res, wall = _solve(scene, t_end, solver, c, max_steps)
@@ -228,11 +232,14 @@ def energy_weights(scene, t_end, rtol, max_steps, weights) -> list:
 
 
 def write_energy_md(data, path):
-    lines = [f"# The energy integrals weighted in the error norm: full level, design case, {data['t_end_s']} s", ""]
+    rocket = data.get("weigh") == "rocket"
+    what = "the rocket bodies' velocities" if rocket else "the energy integrals"
+    lines = [f"# {what[0].upper() + what[1:]} weighted in the error norm: full level, design case, {data['t_end_s']} s", ""]
     lines += _report.header(data) + [""]
     lines += [
-        (f"rosw at rtol = atol = {data['rtol']:g}, {data['mesh'][0]} span elements ({data['mesh'][1]} fine); `w`: weight of the "
-         "energy integrals' scaled errors (`cables.dissipated`, `contact_work`, `hook_damping_work`, `aero_work`)."),
+        (f"rosw at rtol = atol = {data['rtol']:g}, {data['mesh'][0]} span elements ({data['mesh'][1]} fine); `w`: weight of "
+         + ("the rocket bodies' velocities' scaled errors (`rocket.v`)." if rocket else
+            "the energy integrals' scaled errors (`cables.dissipated`, `contact_work`, `hook_damping_work`, `aero_work`).")),
         "",
         "| w | steps (rejected) | wall [s] | z_max [m] | a_max [g] | sigma_max [MPa] | energy budget |",
         "|---:|---|---:|---:|---:|---:|---:|",
@@ -252,6 +259,8 @@ def main():
                    help="span elements and fine ones (default: the scenes')")
     p.add_argument("--energy-weights", nargs="+", type=float, default=None, metavar="W",
                    help="only: the level's rtol with the energy integrals weighted by each W; writes bench_step_limit_energy_<span>_<fine>")
+    p.add_argument("--weigh", choices=["energy", "rocket"], default="energy",
+                   help="with --energy-weights: weigh the energy integrals (default) or the rocket bodies' velocities (writes ..._rocket_<span>_<fine>)")
     p.add_argument("--out", default=None)
     args = p.parse_args()
     enable_x64()
@@ -261,9 +270,10 @@ def main():
     if args.energy_weights is not None:
         _, rtol, _, max_steps = level_solver_settings("full")
         span = args.mesh or (DEFAULT_SPAN_ELEMENTS, DEFAULT_FINE_ELEMENTS)
-        data = _report.start(t_end_s=args.t_end, rtol=rtol, mesh=list(span))
-        data["runs"] = energy_weights(scene, args.t_end, rtol, max_steps, args.energy_weights)
-        _report.finish(data, out, f"{STEM}_energy_{span[0]}_{span[1]}", write_energy_md)
+        data = _report.start(t_end_s=args.t_end, rtol=rtol, mesh=list(span), weigh=args.weigh)
+        data["runs"] = energy_weights(scene, args.t_end, rtol, max_steps, args.energy_weights, args.weigh)
+        tag = "energy" if args.weigh == "energy" else "rocket"
+        _report.finish(data, out, f"{STEM}_{tag}_{span[0]}_{span[1]}", write_energy_md)
         return
     solver_name, rtol, atol, max_steps = level_solver_settings("full")
     assert solver_name == "rosw", solver_name
