@@ -272,8 +272,7 @@ def main():
         span = args.mesh or (DEFAULT_SPAN_ELEMENTS, DEFAULT_FINE_ELEMENTS)
         data = _report.start(t_end_s=args.t_end, rtol=rtol, mesh=list(span), weigh=args.weigh)
         data["runs"] = energy_weights(scene, args.t_end, rtol, max_steps, args.energy_weights, args.weigh)
-        tag = "energy" if args.weigh == "energy" else "rocket"
-        _report.finish(data, out, f"{STEM}_{tag}_{span[0]}_{span[1]}", write_energy_md)
+        _report.finish(data, out, f"{STEM}_{args.weigh}_{span[0]}_{span[1]}", write_energy_md)
         return
     solver_name, rtol, atol, max_steps = level_solver_settings("full")
     assert solver_name == "rosw", solver_name

@@ -29,7 +29,7 @@ import time
 import traceback
 
 import _report
-import numpy as np
+from bench_land import clean
 
 import jaxcable
 
@@ -37,13 +37,6 @@ STEM = "fidelity_ladder"
 CASES = {"design": ("1dof", "rigid", "ale", "full"), "iva": ("rigid", "ale", "full")}
 CRITERIA = ("z_max_m", "a_max_g", "sigma_max_mpa")
 KEYS = CRITERIA + ("stopped", "criteria_met", "energy_budget_error", "num_steps", "solver_status")
-
-
-def _value(v):
-    v = v.item() if hasattr(v, "item") else v
-    if isinstance(v, float) and not np.isfinite(v):
-        return None
-    return v
 
 
 def _call(case, level, t_end):
@@ -55,7 +48,7 @@ def _call(case, level, t_end):
         out = run_landing(level, t_end_s=t_end).outputs
     else:  # the passive phase's outputs (its steps, its energy budget)
         out = run_two_phase(fidelity=level, passive_t_end_s=t_end, seed=0).outputs
-    return {k: _value(out[k]) for k in KEYS}
+    return {k: clean(out[k]) for k in KEYS}
 
 
 def measure(case, level, t_end):

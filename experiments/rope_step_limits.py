@@ -295,19 +295,15 @@ def main():
     saved = out / f"{STEM}.json"
     if set(args.parts) != set(PARTS) and saved.exists():
         _keep(data, json.loads(saved.read_text()), args.parts)
-    for part, key, measure in (("c", "controllers", controllers), ("d", "windows", windows)):
+    timed = (("c", "controllers", controllers, args.controller_rtols), ("d", "windows", windows, args.controller_rtols),
+             ("e", "solvers", solvers, args.solver_settings))  # fmt: skip
+    for part, key, measure, settings in timed:
         if part in args.parts:
-            data[key], data[f"{key}_reference_steps"] = measure(args.segment, args.controller_rtols, args.repeats)
+            data[key], data[f"{key}_reference_steps"] = measure(args.segment, settings, args.repeats)
             data[f"{key}_repeats"] = args.repeats
             for row in data[key]:
                 print(row, flush=True)
             _report.save(data, out, STEM)
-    if "e" in args.parts:
-        data["solvers"], data["solvers_reference_steps"] = solvers(args.segment, args.solver_settings, args.repeats)
-        data["solvers_repeats"] = args.repeats
-        for row in data["solvers"]:
-            print(row, flush=True)
-        _report.save(data, out, STEM)
     for rtol in args.rtols if "a" in args.parts else []:
         data["tolerance"].append(flight(args.segment, "tsit5", rtol))
         print(data["tolerance"][-1], flush=True)
