@@ -7,8 +7,9 @@ Two cases at the ``ale`` and ``full`` levels, at the calibrated cable damping
 * ``iva``: section IV.A's deviated case, scenario I: the tracking phase (rigid rocket, seed 0) to
   capture, then the passive phase from the captured state, ``--iva-t-end`` s.
 
-Variants, each against the level's default (the scenes' mesh, ``DEFAULT_SPAN_ELEMENTS`` = 64 span
-elements, ``DEFAULT_FINE_ELEMENTS`` = 32 of them fine, or ``--mesh``; the hook as a sliding node,
+Variants, each against the level's default (the level's mesh, ``passive.LEVEL_CABLE_MESH``: 64 span
+elements with 32 fine at the full level, 80 with 16 at the ale level, or ``--mesh`` for both; the
+hook as a sliding node,
 or ``--hook-contact capsule``; the contact law of ``passive.scene_contact_law``, the level's solver
 settings, 1 ms saves):
 
@@ -38,7 +39,7 @@ default before the node).
 
 Goals: z_max within 1%, the criteria a_max and sigma_max (CFC 60) within 3% of the default.
 Writes ``convergence_landing.{json,md}`` after every run (a killed run resumes: rows already in the
-JSON for the same beta and default mesh are kept). ``convergence_landing_mesh16.{json,md}`` and
+JSON for the same beta and their level's default mesh are kept). ``convergence_landing_mesh16.{json,md}`` and
 ``convergence_landing_mesh32_node.{json,md}`` are records of the same study with 16 span elements (8
 fine, capsule) and 32 (16 fine, node) as the default. Usage::
 
@@ -65,17 +66,15 @@ from jaxcable.core.validation import check_finite, check_positive
 from jaxcable.arresting import calibration as C
 from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.landing import level_solver_settings, run_landing
-from jaxcable.arresting.passive import DEFAULT_FINE_ELEMENTS as SCENE_FINE
 from jaxcable.arresting.passive import DEFAULT_FINE_HALF_WIDTH_M as FINE_HALF_WIDTH_M
 from jaxcable.arresting.passive import DEFAULT_HOOK_CONTACT
-from jaxcable.arresting.passive import DEFAULT_SPAN_ELEMENTS as SCENE_SPAN
-from jaxcable.arresting.passive import SAVE_SPACING_S, scene_contact_law
+from jaxcable.arresting.passive import SAVE_SPACING_S, cable_mesh_at, scene_contact_law
 
 STEM = "convergence_landing"
 KEYS = ("z_max_m", "a_max_g", "sigma_max_mpa")
 GOALS = {"z_max_m": 0.01, "a_max_g": 0.03, "sigma_max_mpa": 0.03}
-N_SPAN, N_FINE = SCENE_SPAN, SCENE_FINE
-"""The study's default mesh (span elements, fine ones): the scenes' unless ``--mesh`` says otherwise."""
+MESH = None
+"""The study's default mesh (span elements, fine ones) at both levels (``--mesh``); None: each level's."""
 VARIANTS = ("default", "mesh_half", "mesh_x2", "mesh_x4", "fine_x2", "fine_x4", "fine_wide", "fine_wide_x2", "contact_x2", "contact_half", "contact_c_x2", "contact_c_half", "rtol_10", "save_4")
 
 
@@ -83,11 +82,17 @@ DIAGNOSTIC_VARIANTS = ("mesh_x4", "fine_x4", "fine_wide", "fine_wide_x2")
 """Variants run on request only (``--variants``): the mesh diagnostics of the deviated case's sigma_max."""
 
 
+def level_mesh(level):
+    """The study's default mesh at ``level``: ``--mesh``, else the level's (``LEVEL_CABLE_MESH``)."""
+    return tuple(MESH) if MESH is not None else cable_mesh_at(level)
+
+
 def variant_kwargs(name, level, beta):
     law = scene_contact_law()
     solver, rtol, _, steps = level_solver_settings(level, beta)
+    N_SPAN, N_FINE = level_mesh(level)
     return {
-        "default": {} if (N_SPAN, N_FINE) == (SCENE_SPAN, SCENE_FINE) else {"n_span_elements": N_SPAN, "n_fine": N_FINE},
+        "default": {"n_span_elements": N_SPAN, "n_fine": N_FINE},
         "mesh_half": {"n_span_elements": N_SPAN // 2, "n_fine": N_FINE // 2},
         "mesh_x2": dict(n_span_elements=2 * N_SPAN, n_fine=2 * N_FINE),
         "mesh_x4": dict(n_span_elements=4 * N_SPAN, n_fine=4 * N_FINE),
@@ -123,7 +128,7 @@ def one_run(case, level, variant, beta, t_end, iva_kwargs, buffer=None, hook_con
     wall = time.perf_counter() - t0
     o = run.outputs
     return dict(
-        case=case, level=level, variant=variant, beta_s=beta, t_end_s=t_end, wall_s=wall,
+        case=case, level=level, variant=variant, beta_s=beta, t_end_s=t_end, wall_s=wall, default_mesh=list(level_mesh(level)),
         **{k: float(o[k]) for k in (*KEYS, "a_max_raw_g", "sigma_max_raw_mpa", "energy_budget_error")},
         stopped=bool(o["stopped"]), solver_status=str(o["solver_status"]), num_steps=int(o["num_steps"]),
     )  # fmt: skip
@@ -141,13 +146,20 @@ def deviations(rows):
     return out
 
 
+def _mesh_text(mesh):
+    """``[span, fine]`` (one for both levels) or ``{level: [span, fine]}`` in words."""
+    if isinstance(mesh, dict):
+        return ", ".join(f"{lv} level {m[0]} span elements, {m[1]} fine" for lv, m in mesh.items())
+    return f"{mesh[0]} span elements, {mesh[1]} fine"
+
+
 def write_md(data, path):
     L = ["# Convergence of the landing criteria", "", *_report.header(data), ""]
     L += [
         f"Cable damping beta = {data['beta_s']:.4g} s (calibrated, `experiments/calibrate_damping.py`). "
         + (f"Design case with the buffer m_w = {data['buffer'][0]:g} kg, F_f = {data['buffer'][1]:g} N (Table 1: 920 kg, "
            "3.13e5 N). " if data.get("buffer") else "")
-        + f"Default mesh: {data.get('default_mesh', [16, 8])[0]} span elements, {data.get('default_mesh', [16, 8])[1]} fine. "
+        + f"Default mesh: {_mesh_text(data.get('default_mesh', [16, 8]))}. "
         + ("Hooks as sliding nodes (`hook_contact=\"node\"`). " if data.get("hook_contact") == "node" else "")
         + "Deviation of each variant from the level's default; goals: z_max 1%, a_max and sigma_max (CFC 60) 3%. "
         "Raw (unfiltered) maxima beside. A cell marked * misses its goal.",
@@ -186,10 +198,10 @@ def main():
     p.add_argument("--mesh", nargs=2, type=int, metavar=("SPAN", "FINE"),
                    help="the study's default mesh: span elements and fine ones (default: the scenes')")
     args = p.parse_args()
-    global N_SPAN, N_FINE
+    global MESH
     if args.mesh is not None:
         check_positive("--mesh", np.asarray(args.mesh))
-        N_SPAN, N_FINE = args.mesh
+        MESH = tuple(args.mesh)
     enable_x64()
     stem = STEM + args.tag + ("_node" if args.hook_contact == "node" else "")
     buffer = None
@@ -206,11 +218,13 @@ def main():
     rows = []
     if old.exists():
         prev = json.loads(old.read_text())
-        if prev.get("beta_s") == beta and prev.get("default_mesh") == [N_SPAN, N_FINE] and prev.get("buffer") == args.buffer:
-            rows = prev.get("rows", [])
+        if prev.get("beta_s") == beta and prev.get("buffer") == args.buffer:
+            # rows written before each row named its mesh ran the record's one default mesh
+            rows = [r for r in prev.get("rows", [])
+                    if r.get("default_mesh", prev.get("default_mesh")) == list(level_mesh(r["level"]))]  # fmt: skip
     data = _report.start(precision=_report.precision())
     data["beta_s"] = beta
-    data["default_mesh"] = [N_SPAN, N_FINE]
+    data["default_mesh"] = list(MESH) if MESH is not None else {lv: list(level_mesh(lv)) for lv in ("ale", "full")}
     data["buffer"] = args.buffer
     data["hook_contact"] = args.hook_contact
     data["rows"] = rows

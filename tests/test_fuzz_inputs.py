@@ -23,7 +23,7 @@ from jaxcable.arresting.control import TrackingController
 from jaxcable.arresting.landing import run_landing
 from jaxcable.arresting.layout import ArrestingLayout, CaptureState
 from jaxcable.arresting.passive import (
-    DEFAULT_SPAN_ELEMENTS,
+    LEVEL_CABLE_MESH,
     LandingCriteria,
     passive_landing_scene,
 )
@@ -117,8 +117,8 @@ CLI_FLAGS = {
     "--cable-damping": (outside(0.0, 0.1), ["cable_damping"], PASSIVE),
     "--span-elements": (st.one_of(outside(10, 256, integer=True), st.sampled_from(["2.5", "x"])),
                         ["span-elements", "n_span_elements"], ALE),
-    # fine elements: 1 .. the default span elements - 2 (a coarse element on each side)
-    "--fine-elements": (st.one_of(outside(1, DEFAULT_SPAN_ELEMENTS - 2, integer=True), st.sampled_from(["1.5", "x"])),
+    # fine elements: 1 .. the ale level's default span elements - 2 (a coarse element on each side)
+    "--fine-elements": (st.one_of(outside(1, LEVEL_CABLE_MESH["ale"][0] - 2, integer=True), st.sampled_from(["1.5", "x"])),
                         ["fine-elements", "n_fine"], ALE),
     "--t-end": (outside(0.0, 60.0, low_open=True), ["t-end", "t_end"], PASSIVE),
     "--rtol": (outside(0.0, 0.1, low_open=True), ["rtol"], PASSIVE),
@@ -343,8 +343,9 @@ BUILDER_ARGS = {
         "capture": st.sampled_from([{"x_m": 1.0}, "design", 3.0]),
         "layout": st.sampled_from([{"EA_N": 1.0}, "Table 1", 25.0]),
         "buffer": st.sampled_from([{"brake_force_N": 1.0}, "paper", 920.0]),
-        "n_span_elements": st.one_of(outside(10, 256, integer=True), st.sampled_from([16.0, "16", None])),
-        "n_fine": st.one_of(outside(1, DEFAULT_SPAN_ELEMENTS - 2, integer=True), st.sampled_from([8.0, "8", None])),
+        # None: the level's mesh (LEVEL_CABLE_MESH; the rigid rocket's is the ale level's)
+        "n_span_elements": st.one_of(outside(10, 256, integer=True), st.sampled_from([16.0, "16"])),
+        "n_fine": st.one_of(outside(1, LEVEL_CABLE_MESH["ale"][0] - 2, integer=True), st.sampled_from([8.0, "8"])),
         "fine_half_width_m": bad_number(0.0, 1000.0, low_open=True),
         "n_rocket_bodies": st.one_of(outside(1, 100, integer=True), st.sampled_from([5.0, "5"])),
         "t_end_s": bad_number(0.0, 60.0, low_open=True),

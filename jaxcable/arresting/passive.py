@@ -110,6 +110,7 @@ __all__ = [
     "DEFAULT_FINE_HALF_WIDTH_M",
     "DEFAULT_SPAN_ELEMENTS",
     "FIDELITY_LEVELS",
+    "LEVEL_CABLE_MESH",
     "LIGHT_CABLE_DAMPING_S",
     "G_CRITERIA",
     "LandingCriteria",
@@ -117,6 +118,7 @@ __all__ = [
     "SAVE_SPACING_S",
     "SmoothingWidths",
     "criteria_met",
+    "cable_mesh_at",
     "filtered_histories",
     "filtered_maxima",
     "hook_contact_at",
@@ -655,15 +657,32 @@ explicit solvers run the ale and full levels at their cheapest (Bosh3, ``LEVEL_D
 cables' mode rings (a_max 7.6 g on the full level's design case), so it suits solver benchmarks and
 tests of the numerics, not criteria."""
 
-DEFAULT_SPAN_ELEMENTS = 64
-"""ALE elements per arresting span in the ale and full scenes unless given. With the hook as a
-sliding node (:data:`DEFAULT_HOOK_CONTACT`) the criteria converge there at the full level: 128
-elements move z_max, a_max and sigma_max by at most 0.9% on the design case (a_max 5.18 / 5.13 g)
-and on section IV.A's deviated case (6.04 / 6.09 g); at 32 the design case's a_max reads 11% high
-(``docs/arresting_validation.md``, "The hook as a sliding node")."""
+LEVEL_CABLE_MESH = {"ale": (80, 16), "full": (64, 32)}
+"""Each level's ALE cable mesh unless given: (elements per arresting span, of them fine elements over
++-3 m next to each hook). Chosen by measurement with the hook as a sliding node
+(:data:`DEFAULT_HOOK_CONTACT`; ``experiments/convergence_landing.py``, ``docs/arresting_validation.md``):
 
-DEFAULT_FINE_ELEMENTS = 32
-"""Of those, equal fine elements next to each hook (0.19 m over +-3 m) unless given."""
+* ``full``: 64 (32 fine, 0.19 m): 128 elements move z_max, a_max and sigma_max by at most 0.9% on
+  the design case (a_max 5.18 / 5.13 g) and on section IV.A's deviated case (6.04 / 6.09 g); at 32
+  the design case's a_max reads 11% high. 80 (16 fine) reads a_max as well in 1.6x fewer steps but
+  leaves the energy budget open by 2e-4 at the level's rtol (the sprung hooks' drift,
+  ``docs/stiff_integrator.md``).
+* ``ale``: 80 (16 fine, 0.375 m): a_max within 0.3-1.2% of 128-256 elements on both cases, the
+  energy budget closed to 3e-6, in 0.6x the steps of 64 (32 fine), which reads the design case's
+  a_max 3.6-4.1% high at this level."""
+
+DEFAULT_SPAN_ELEMENTS, DEFAULT_FINE_ELEMENTS = LEVEL_CABLE_MESH["full"]
+"""The full level's mesh (:data:`LEVEL_CABLE_MESH`): ALE elements per arresting span, and of them
+equal fine elements next to each hook (0.19 m over +-3 m)."""
+
+
+def cable_mesh_at(fidelity: str, n_span_elements: int | None = None, n_fine: int | None = None) -> tuple[int, int]:
+    """``(n_span_elements, n_fine)`` as given, each None replaced by the level's default
+    (:data:`LEVEL_CABLE_MESH`; the ``full`` level's, else the ``ale`` level's: a scene with ALE
+    cables on the rigid rocket is the ale level's rocket)."""
+    span, fine = LEVEL_CABLE_MESH["full" if fidelity == "full" else "ale"]
+    return (span if n_span_elements is None else n_span_elements, fine if n_fine is None else n_fine)
+
 
 DEFAULT_HOOK_CONTACT = "node"
 """How a hook holds an ALE cable unless given: ``"node"``, the hook as a sliding node of its cable
@@ -701,13 +720,15 @@ LEGACY_ALE_MODEL = ("capsule", 32, 16)
 identity (:func:`ale_model_identity`), so that they still resume with these settings given."""
 
 
-def ale_model_identity(fidelity: str, hook_contact: str | None, n_span_elements: int, n_fine: int) -> dict:
-    """The part of a sweep's identity (``describe()``) that names the ALE cables' hook model and mesh:
-    ``{}`` at the rigid level and for :data:`LEGACY_ALE_MODEL`, else ``hook_contact``,
-    ``n_span_elements`` and ``n_fine``. A CSV resumes only rows computed with the same model."""
+def ale_model_identity(fidelity: str, hook_contact: str | None, n_span_elements: int | None, n_fine: int | None) -> dict:
+    """The part of a sweep's identity (``describe()``) that names the ALE cables' hook model and mesh
+    (a None: the level's default, :func:`cable_mesh_at`): ``{}`` at the rigid level and for
+    :data:`LEGACY_ALE_MODEL`, else ``hook_contact``, ``n_span_elements`` and ``n_fine``. A CSV
+    resumes only rows computed with the same model."""
     if fidelity == "rigid":
         return {}
-    model = (hook_contact_at(hook_contact, "ale"), int(n_span_elements), int(n_fine))  # the sweeps' ale/full scenes: ALE cables
+    span, fine = cable_mesh_at(fidelity, n_span_elements, n_fine)
+    model = (hook_contact_at(hook_contact, "ale"), int(span), int(fine))  # the sweeps' ale/full scenes: ALE cables
     if model == LEGACY_ALE_MODEL:
         return {}
     return dict(zip(("hook_contact", "n_span_elements", "n_fine"), model))
@@ -725,12 +746,13 @@ def check_cable_mesh(n_span_elements: int, n_fine: int):
         )
 
 
-def ale_model_kwargs(fidelity: str, hook_contact: str | None, n_span_elements: int, n_fine: int) -> dict:
+def ale_model_kwargs(fidelity: str, hook_contact: str | None, n_span_elements: int | None, n_fine: int | None) -> dict:
     """The keyword arguments of :func:`passive_landing_scene` that set the ALE cables' hook model and
-    mesh (none at the rigid level, whose massless cables have neither)."""
+    mesh (none at the rigid level, whose massless cables have neither; a None: the level's default)."""
     if fidelity == "rigid":
         return {}
-    return {"hook_contact": hook_contact, "n_span_elements": int(n_span_elements), "n_fine": int(n_fine)}
+    span, fine = cable_mesh_at(fidelity, n_span_elements, n_fine)
+    return {"hook_contact": hook_contact, "n_span_elements": int(span), "n_fine": int(fine)}
 
 
 def check_hook_contact(hook_contact: str | None, fidelity: str):
@@ -752,8 +774,8 @@ def passive_landing_scene(
     buffer: BufferDevice | None = None,
     *,
     contact=None,
-    n_span_elements: int = DEFAULT_SPAN_ELEMENTS,
-    n_fine: int = DEFAULT_FINE_ELEMENTS,
+    n_span_elements: int | None = None,
+    n_fine: int | None = None,
     fine_half_width_m: float = DEFAULT_FINE_HALF_WIDTH_M,
     n_rocket_bodies: int = 5,
     t_end_s: float = 2.0,
@@ -800,10 +822,12 @@ def passive_landing_scene(
       the hooks) 0.5 m/s lowers sigma_max by 1.25% against 0.05 m/s (0.2 m/s: 0.5%).
       0.5 m/s halves the steps against 0.2 m/s (``docs/notes/contact_slip.md``; 0.3 s landings end
       before the hook load grows and do not show the difference).
-    * the hook as a sliding node of its cable (:data:`DEFAULT_HOOK_CONTACT`) on 64 span elements,
-      32 of them over +-3 m next to each hook (0.19 m), 2 per tower: the design case's and the
-      deviated case's criteria converge there (within 0.9% of 128 elements at the full level;
-      ``docs/arresting_validation.md``). ``hook_contact="capsule", n_span_elements=32, n_fine=16``
+    * the hook as a sliding node of its cable (:data:`DEFAULT_HOOK_CONTACT`) on the level's mesh
+      (``n_span_elements``, ``n_fine`` None: :data:`LEVEL_CABLE_MESH`): at the full level 64 span
+      elements, 32 of them over +-3 m next to each hook (0.19 m), 2 per tower; at the ale level 80,
+      16 of them fine (0.375 m). The design case's and the deviated case's criteria converge there
+      (a_max within 0.9% of 128 elements at the full level, within 0.3-1.2% of 128-256 at the ale
+      level; ``docs/arresting_validation.md``). ``hook_contact="capsule", n_span_elements=32, n_fine=16``
       (the default before) runs 1.5x (ale) and 1.4x (full) faster on the design case
       (``experiments/bench_hook_model.py``): there its a_max reads 2% low, on
       the deviated case a_max 14% high and sigma_max unconverged (765-846 MPa over the meshes).
@@ -851,6 +875,7 @@ def passive_landing_scene(
     check_cable_damping("cable_damping_s", cable_damping_s)
     check_t_end("t_end_s", t_end_s)
     _check_save_grid(save_spacing_s, n_save)
+    n_span_elements, n_fine = cable_mesh_at(fidelity, n_span_elements, n_fine)
     check_cable_mesh(n_span_elements, n_fine)
     check_positive("fine_half_width_m", fine_half_width_m)
     check_range("fine_half_width_m", fine_half_width_m, 0.0, 1000.0, high_inclusive=True, unit=" m")

@@ -52,13 +52,12 @@ from jaxcable.arresting.layout import ArrestingLayout, CaptureState
 from jaxcable.arresting.landing import LEVEL_STEP_CONTROL, batched_solver, level_solver_settings
 from jaxcable.arresting.passive import (
     DEFAULT_CABLE_DAMPING_S,
-    DEFAULT_FINE_ELEMENTS,
-    DEFAULT_SPAN_ELEMENTS,
     G_CRITERIA,
     SAVE_SPACING_S,
     LandingCriteria,
     ale_model_identity,
     ale_model_kwargs,
+    cable_mesh_at,
     check_cable_mesh,
     check_hook_contact,
     landing_outputs,
@@ -213,15 +212,15 @@ class PassiveCaseFunction(AbstractLandingCaseFunction):
     """How a hook holds its cable at the ``ale``/``full`` levels: ``"node"`` (the hook as a sliding
     node, :class:`~jaxcable.arresting.cable_sets.AleCables`) or ``"capsule"``; None: the level's
     default (:func:`~jaxcable.arresting.passive.hook_contact_at`)."""
-    n_span_elements: int = eqx.field(static=True, default=DEFAULT_SPAN_ELEMENTS)
+    n_span_elements: int | None = eqx.field(static=True, default=None)
     """ALE elements per arresting span (``ale``/``full``)."""
-    n_fine: int = eqx.field(static=True, default=DEFAULT_FINE_ELEMENTS)
+    n_fine: int | None = eqx.field(static=True, default=None)
     """Of those, fine elements next to each hook (``ale``/``full``)."""
 
     def __check_init__(self):
         check_choice("fidelity", self.fidelity, SWEEP_FIDELITIES)
         check_hook_contact(self.hook_contact, self.fidelity)
-        check_cable_mesh(self.n_span_elements, self.n_fine)
+        check_cable_mesh(*cable_mesh_at(self.fidelity, self.n_span_elements, self.n_fine))
         check_positive("cable_damping_s", self.cable_damping_s, allow_zero=True)
         check_positive("t_end_s", self.t_end_s)
         check_positive("rtol", self.rtol)
@@ -349,8 +348,8 @@ def passive_case_fn(
     seed: int = 0,
     cable_damping_s: float = DEFAULT_CABLE_DAMPING_S,
     hook_contact: str | None = None,
-    n_span_elements: int = DEFAULT_SPAN_ELEMENTS,
-    n_fine: int = DEFAULT_FINE_ELEMENTS,
+    n_span_elements: int | None = None,
+    n_fine: int | None = None,
 ) -> PassiveCaseFunction:
     """The passive-phase case function with Table 1 defaults and the level's solver settings
     (:func:`jaxcable.arresting.landing.level_solver_settings` of the level and ``cable_damping_s``
@@ -393,8 +392,8 @@ def passive_case_fn(
         seed=int(seed),
         cable_damping_s=float(cable_damping_s),
         hook_contact=hook_contact,
-        n_span_elements=int(n_span_elements),
-        n_fine=int(n_fine),
+        n_span_elements=None if n_span_elements is None else int(n_span_elements),
+        n_fine=None if n_fine is None else int(n_fine),
     )
 
 

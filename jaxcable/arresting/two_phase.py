@@ -98,12 +98,11 @@ from jaxcable.arresting.landing_rocket import rigid_landing_rocket
 from jaxcable.arresting.layout import HOOK_OF_CABLE, ArrestingLayout, CaptureState
 from jaxcable.arresting.passive import (
     DEFAULT_CABLE_DAMPING_S,
-    DEFAULT_FINE_ELEMENTS,
-    DEFAULT_SPAN_ELEMENTS,
     LandingCriteria,
     check_cable_damping,
     ale_model_identity,
     ale_model_kwargs,
+    cable_mesh_at,
     check_cable_mesh,
     check_hook_contact,
     check_t_end,
@@ -606,9 +605,9 @@ class TwoPhaseCaseFunction(AbstractLandingCaseFunction):
     """How a hook holds its cable in an ``ale``/``full`` passive phase: ``"node"`` (the hook as a
     sliding node, :class:`~jaxcable.arresting.cable_sets.AleCables`) or ``"capsule"``; None: the
     level's default (:func:`~jaxcable.arresting.passive.hook_contact_at`)."""
-    n_span_elements: int = eqx.field(static=True, default=DEFAULT_SPAN_ELEMENTS)
+    n_span_elements: int | None = eqx.field(static=True, default=None)
     """ALE elements per arresting span in an ``ale``/``full`` passive phase."""
-    n_fine: int = eqx.field(static=True, default=DEFAULT_FINE_ELEMENTS)
+    n_fine: int | None = eqx.field(static=True, default=None)
     """Of those, fine elements next to each hook."""
     passive_rtol: float | None = eqx.field(static=True, default=None)
     """Relative = absolute tolerance of an ``ale``/``full`` passive phase (``jaxcable sweep --rtol``);
@@ -627,7 +626,7 @@ class TwoPhaseCaseFunction(AbstractLandingCaseFunction):
                 )
         check_choice("fidelity", self.fidelity, ("rigid", "ale", "full"))
         check_hook_contact(self.hook_contact, self.fidelity)
-        check_cable_mesh(self.n_span_elements, self.n_fine)
+        check_cable_mesh(*cable_mesh_at(self.fidelity, self.n_span_elements, self.n_fine))
 
     @property
     def host_build(self) -> bool:
@@ -753,7 +752,7 @@ class TwoPhaseCaseFunction(AbstractLandingCaseFunction):
 
 def two_phase_case_fn(fidelity="rigid", *, scenario="I", seed=0, buffer=None, layout=None, gain_per_s=None,
                       t_end_s=2.0, solver=None, rtol=None, max_steps=None, cable_damping_s=DEFAULT_CABLE_DAMPING_S,
-                      hook_contact=None, n_span_elements=DEFAULT_SPAN_ELEMENTS, n_fine=DEFAULT_FINE_ELEMENTS,
+                      hook_contact=None, n_span_elements=None, n_fine=None,
                       **_ignored):  # fmt: skip
     """The two-phase case function with the scenario's controller gain and Table 1's buffer; registered
     as ``"arresting.full"`` (``phase="full"`` of :func:`jaxcable.arresting.sweep.case_fn_for`)."""
@@ -769,7 +768,8 @@ def two_phase_case_fn(fidelity="rigid", *, scenario="I", seed=0, buffer=None, la
         gain_per_s=SCENARIO_SETTINGS[scenario]["gain_per_s"] if gain_per_s is None else gain_per_s,
         scenario=scenario, fidelity=fidelity, seed=int(seed), t_end_s=float(t_end_s),
         cable_damping_s=float(cable_damping_s), hook_contact=hook_contact,
-        n_span_elements=int(n_span_elements), n_fine=int(n_fine),
+        n_span_elements=None if n_span_elements is None else int(n_span_elements),
+        n_fine=None if n_fine is None else int(n_fine),
         passive_rtol=None if rtol is None else float(rtol),
     )  # fmt: skip
 

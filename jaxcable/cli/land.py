@@ -14,11 +14,7 @@ import argparse
 from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.landing import plot_landing, report_landing, run_landing
 from jaxcable.arresting.layout import CaptureState
-from jaxcable.arresting.passive import (
-    DEFAULT_CABLE_DAMPING_S,
-    DEFAULT_FINE_ELEMENTS,
-    DEFAULT_SPAN_ELEMENTS,
-)
+from jaxcable.arresting.passive import DEFAULT_CABLE_DAMPING_S
 from jaxcable.arresting.two_phase import plot_two_phase, report_two_phase, run_two_phase
 from jaxcable.cli.report import Report, cable_damping, positive
 from jaxcable.core.simulate import SOLVERS
@@ -72,8 +68,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("--brake-profile", default=None, help="factors phi_0,...,phi_K-1 of the brake force along the counterweight rise, F_f(w) = F_f phi(w), at K equally spaced knots over [0, --brake-profile-travel] (e.g. a design of `jaxcable design --vars m_w,profile:8`); default: constant brake")
     p.add_argument("--brake-profile-travel", type=float, default=6.0, help="counterweight rise of the profile's last knot [m] (default 6)")
     p.add_argument("--cable-damping", type=cable_damping(), default=DEFAULT_CABLE_DAMPING_S, help=f"cables' stiffness-proportional damping beta [s] (levels rigid, ale, full; default {DEFAULT_CABLE_DAMPING_S:g} = 'calibrated', fitted to the paper's section III.F, docs/arresting_validation.md; the paper prints none, a_max depends on it: 1e-5 leaves the cables' mode ringing; ale/full: from 5e-4 s (ale) or 1e-3 s (full) on, the W-method rosw runs by default, its steps free of the explicit stability limit)")
-    p.add_argument("--span-elements", type=int, default=DEFAULT_SPAN_ELEMENTS, help=f"ALE elements per arresting span (levels ale, full; default {DEFAULT_SPAN_ELEMENTS}: with the hook as a node the criteria of the design case and the deviated case are within 0.9%% of 128 elements at the full level, docs/arresting_validation.md)")
-    p.add_argument("--fine-elements", type=int, default=DEFAULT_FINE_ELEMENTS, help=f"of those, equal fine elements over +-3 m next to the hook (levels ale, full; default {DEFAULT_FINE_ELEMENTS} = 0.19 m)")
+    p.add_argument("--span-elements", type=int, default=None, help="ALE elements per arresting span (levels ale, full; default: the level's, 64 at full, 80 at ale: with the hook as a node the criteria of the design case and the deviated case are within 0.9%% (full) and 1.2%% (ale) of finer meshes, docs/arresting_validation.md)")
+    p.add_argument("--fine-elements", type=int, default=None, help="of those, equal fine elements over +-3 m next to the hook (levels ale, full; default: the level's, 32 = 0.19 m at full, 16 = 0.375 m at ale)")
     p.add_argument("--hook-contact", choices=["capsule", "node"], default=None, help="how a hook holds its cable (levels ale, full; --phase passive): node (default), the hook as a sliding node of its cable, or capsule, the Hertz/Coulomb contact of the hook's capsules with every span element (pushes the cable along itself where it kinks over the hook: the deviated case's sigma_max does not converge with the mesh; with --span-elements 32 --fine-elements 16 1.5x (ale) and 1.4x (full) faster on the design case; docs/arresting_validation.md)")
     p.add_argument("--t-end", type=positive("--t-end"), default=2.0, help="time simulated after capture [s] (default 2)")
     p.add_argument("--solver", choices=sorted(SOLVERS), default=None, help="diffrax solver (default per level)")
@@ -171,7 +167,7 @@ def _passive(args: argparse.Namespace) -> Report:
 def _two_phase(args: argparse.Namespace) -> Report:
     if args.fidelity == "1dof":
         raise ValueError("--phase full needs --fidelity rigid, ale or full")
-    if (args.span_elements, args.fine_elements) != (DEFAULT_SPAN_ELEMENTS, DEFAULT_FINE_ELEMENTS):
+    if (args.span_elements, args.fine_elements) != (None, None):
         raise ValueError("--span-elements/--fine-elements apply to --phase passive only")
     if args.hook_contact is not None:
         raise ValueError("--hook-contact applies to --phase passive only")

@@ -14,7 +14,7 @@ from pathlib import Path
 import jax
 import numpy as np
 
-from jaxcable.arresting.passive import DEFAULT_CABLE_DAMPING_S, DEFAULT_FINE_ELEMENTS, DEFAULT_SPAN_ELEMENTS
+from jaxcable.arresting.passive import DEFAULT_CABLE_DAMPING_S
 from jaxcable.arresting.screening import SCREENING_BAND, run_confirmation
 from jaxcable.arresting.sweep import SWEEP_FIDELITIES, qmc_case_fn, run_qmc_sweep, summarize_sweep, summary_markdown
 from jaxcable.arresting.sweep_plots import plot_histories, plot_landing_plane, plot_tracking
@@ -78,8 +78,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("--max-steps", type=positive_int("--max-steps"), default=None, help="solver step budget per case (default per level)")
     p.add_argument("--cable-damping", type=cable_damping(), default=DEFAULT_CABLE_DAMPING_S, help=f"cables' stiffness-proportional damping beta [s] (default {DEFAULT_CABLE_DAMPING_S:g} = 'calibrated', fitted to the paper's section III.F, docs/arresting_validation.md; the paper prints none, a_max depends on it: 1e-5 leaves the cables' mode ringing)")
     p.add_argument("--hook-contact", choices=["capsule", "node"], default=None, help="how a hook holds its cable (--fidelity ale, full): node (default), the hook as a sliding node of its cable, or capsule, the Hertz/Coulomb contact of the hook's capsules with every span element (docs/arresting_validation.md)")
-    p.add_argument("--span-elements", type=positive_int("--span-elements"), default=DEFAULT_SPAN_ELEMENTS, help=f"ALE elements per arresting span (--fidelity ale, full; default {DEFAULT_SPAN_ELEMENTS})")
-    p.add_argument("--fine-elements", type=positive_int("--fine-elements"), default=DEFAULT_FINE_ELEMENTS, help=f"of those, fine elements next to each hook (--fidelity ale, full; default {DEFAULT_FINE_ELEMENTS}); --hook-contact capsule --span-elements 32 --fine-elements 16 resumes the sweeps recorded before the node became the default")
+    p.add_argument("--span-elements", type=positive_int("--span-elements"), default=None, help="ALE elements per arresting span (--fidelity ale, full; default: the level's, 64 at full, 80 at ale)")
+    p.add_argument("--fine-elements", type=positive_int("--fine-elements"), default=None, help="of those, fine elements next to each hook (--fidelity ale, full; default: the level's, 32 at full, 16 at ale); --hook-contact capsule --span-elements 32 --fine-elements 16 resumes the sweeps recorded before the node became the default")
     p.add_argument(
         "--confirm",
         metavar="SCREENED_CSV",
