@@ -28,6 +28,8 @@ settings, 1 ms saves):
 ``contact_c_x2`` the contact's Hunt-Crossley damping factor c x 2 (restitution at 5 m/s 0.59 -> 0.41)
 ``contact_c_half`` c / 2 (restitution at 5 m/s 0.59 -> 0.75)
 ``rtol_10``     rtol = atol / 10
+``rtol_x3``     rtol = atol x 3 (looser: what a cheaper default tolerance would cost)
+``rtol_x10``    rtol = atol x 10
 ``save_4``      save spacing / 4 (0.25 ms; the criteria's CFC 60 filter runs on the saves)
 ==============  ==============================================================================
 
@@ -75,11 +77,12 @@ KEYS = ("z_max_m", "a_max_g", "sigma_max_mpa")
 GOALS = {"z_max_m": 0.01, "a_max_g": 0.03, "sigma_max_mpa": 0.03}
 MESH = None
 """The study's default mesh (span elements, fine ones) at both levels (``--mesh``); None: each level's."""
-VARIANTS = ("default", "mesh_half", "mesh_x2", "mesh_x4", "fine_x2", "fine_x4", "fine_wide", "fine_wide_x2", "contact_x2", "contact_half", "contact_c_x2", "contact_c_half", "rtol_10", "save_4")
+VARIANTS = ("default", "mesh_half", "mesh_x2", "mesh_x4", "fine_x2", "fine_x4", "fine_wide", "fine_wide_x2", "contact_x2", "contact_half", "contact_c_x2", "contact_c_half", "rtol_10", "save_4", "rtol_x3", "rtol_x10")
 
 
-DIAGNOSTIC_VARIANTS = ("mesh_x4", "fine_x4", "fine_wide", "fine_wide_x2")
-"""Variants run on request only (``--variants``): the mesh diagnostics of the deviated case's sigma_max."""
+DIAGNOSTIC_VARIANTS = ("mesh_x4", "fine_x4", "fine_wide", "fine_wide_x2", "rtol_x3", "rtol_x10")
+"""Variants run on request only (``--variants``): the mesh diagnostics of the deviated case's sigma_max,
+and the looser tolerances."""
 
 
 def level_mesh(level):
@@ -105,6 +108,8 @@ def variant_kwargs(name, level, beta):
         "contact_c_x2": dict(contact=eqx.tree_at(lambda c: c.c, law, 2.0 * law.c)),
         "contact_c_half": dict(contact=eqx.tree_at(lambda c: c.c, law, 0.5 * law.c)),
         "rtol_10": dict(solver=solver, rtol=rtol / 10, atol=rtol / 10, max_steps=4 * steps),
+        "rtol_x3": {"solver": solver, "rtol": rtol * 3, "atol": rtol * 3, "max_steps": steps},
+        "rtol_x10": {"solver": solver, "rtol": rtol * 10, "atol": rtol * 10, "max_steps": steps},
         "save_4": dict(save_spacing_s=SAVE_SPACING_S / 4),
     }[name]
 
@@ -123,12 +128,13 @@ def one_run(case, level, variant, beta, t_end, iva_kwargs, buffer=None, hook_con
         kw.update(iva_kwargs)
     elif buffer is not None:
         kw["buffer"] = buffer
+    rtol = kw.get("rtol", level_solver_settings(level, beta)[1])
     t0 = time.perf_counter()
     run = run_landing(level, t_end_s=t_end, **kw)
     wall = time.perf_counter() - t0
     o = run.outputs
     return dict(
-        case=case, level=level, variant=variant, beta_s=beta, t_end_s=t_end, wall_s=wall, default_mesh=list(level_mesh(level)),
+        case=case, level=level, variant=variant, beta_s=beta, t_end_s=t_end, wall_s=wall, default_mesh=list(level_mesh(level)), rtol=rtol,
         **{k: float(o[k]) for k in (*KEYS, "a_max_raw_g", "sigma_max_raw_mpa", "energy_budget_error")},
         stopped=bool(o["stopped"]), solver_status=str(o["solver_status"]), num_steps=int(o["num_steps"]),
     )  # fmt: skip

@@ -1,8 +1,9 @@
 """The fidelity ladder at the scenes' defaults: each level's criteria against the full level, and its cost (not a test).
 
 Which level can a user afford for a stated error? Two cases, each level at its defaults (the
-calibrated cable damping, the hook as a sliding node on 64 span elements with 32 fine, the
-level's solver settings from ``level_solver_settings``):
+calibrated cable damping, the hook as a sliding node on the level's mesh (``LEVEL_CABLE_MESH``:
+64 span elements with 32 fine at the full level, 80 with 16 at the ale level), the level's solver
+settings from ``level_solver_settings``):
 
 * the design case (Table 1, centred vertical capture at 20 m/s; ``run_landing``), levels
   ``1dof``, ``rigid``, ``ale``, ``full``, ``--t-end`` seconds (default 1.2; the rocket stops near
@@ -86,12 +87,18 @@ def _pct(v):
     return "-" if v is None else f"{100 * v:+.1f}%"
 
 
+def _meshes():
+    from jaxcable.arresting.passive import LEVEL_CABLE_MESH
+
+    return ", ".join(f"{lv} {span} span elements, {fine} fine" for lv, (span, fine) in LEVEL_CABLE_MESH.items())
+
+
 def write_md(data, path):
     lines = _report.header(data) + [
         "",
         (
-            "Each level at the scenes' defaults (calibrated cable damping, the hook as a sliding node on 64 span "
-            "elements, 32 fine; the level's solver settings). *run*: the second, identical call (compiled); "
+            "Each level at the scenes' defaults (calibrated cable damping, the hook as a sliding node on the level's "
+            f"mesh: {_meshes()}; the level's solver settings). *run*: the second, identical call (compiled); "
             "*compile*: first call - run. Deviations are from the full level of the same case. a_max and "
             "sigma_max after the CFC 60 filter."
         ),

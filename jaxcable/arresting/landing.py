@@ -84,8 +84,14 @@ STIFF_LEVEL_DEFAULTS = {
     # level: (solver, rtol, atol, max_steps) when cable_damping_s >= STIFF_DAMPING_S. rtol 1e-5:
     # with the hooks in J, rosw at 1e-4 errs by 2-4e-4 in the criteria and up to 3e-4 in the energy
     # budget (full), at 1e-5 by 2e-6 to 5e-5 and 1.5e-6 to 2.7e-5 (the budget goal: 1e-4;
-    # the reference: rosw at 1e-7; experiments/results/bench_stiff_coupling.md)
-    "ale": ("rosw", 1e-5, 1e-5, 400_000),
+    # the reference: rosw at 1e-7; experiments/results/bench_stiff_coupling.md).
+    # ale at 3e-5, on its own mesh (passive.LEVEL_CABLE_MESH: 80 span elements, 16 fine): the design
+    # case (1 s) and IV.A's (1.2 s) read every criterion within 3e-4 of rtol 1e-6 and close the
+    # energy budget to 8.1e-6 / 1.8e-6, in 0.69x / 0.73x the steps of 1e-5; at 1e-4 within 1.3e-3,
+    # budget 3.9e-5 / 8.2e-6, 0.45x / 0.55x the steps: too near the budget's check for a default
+    # (experiments/convergence_landing.py --levels ale --variants rtol_x3 rtol_x10 --tag _ale80;
+    # docs/arresting_validation.md, "The ale level's own mesh"). The full level's drift holds it at 1e-5.
+    "ale": ("rosw", 3e-5, 3e-5, 400_000),
     "full": ("rosw", 1e-5, 1e-5, 400_000),
 }
 
