@@ -267,6 +267,10 @@ def _rocket_rows(state):
     return state.rocket
 
 
+def _speed_rows(state):
+    return state.rocket.v, state.rocket.omega_body
+
+
 def _cable_rows(state):
     q, qdot = state.cables.q, state.cables.qdot
     return q.r, q.s, q.h, q.u, qdot.r, qdot.s, qdot.h, qdot.u
@@ -357,14 +361,18 @@ class PassiveLandingScene(AbstractScene):
         kin = self.cables.kinematics(state.cables)
         picked = self.cables.contact_pairs_picked(kin, hooks, stiff=True)
         blocks = self.cables.stiff_blocks(state.cables, hooks, t, kin=kin, picked=picked)
-        hinge = self._hinge_jacobian(t, state, kin, picked) if state.rocket.hinge_rate.shape[0] else None
+        hinge, reaction = None, None
+        if state.rocket.hinge_rate.shape[0]:
+            *hinge, reaction = self._hinge_jacobian(t, state, kin, picked, reaction=True)
+            hinge = tuple(hinge)
         coupling = HookCoupling.at(self.cables, self.rocket, state.cables, state.rocket, rows=_rocket_rows, kin=kin, picked=picked) if hook_coupling else None  # fmt: skip
         return CableLinearisation(
             blocks, rows=_cable_rows, active=self.cables.subsystems.route.active_slots, hinge=hinge,
             hinge_rows=_hinge_rows if hinge is not None else None, coupling=coupling,
+            hinge_reaction=reaction, speed_rows=_speed_rows if reaction is not None else None,
         )  # fmt: skip
 
-    def _hinge_jacobian(self, t, state, kin=None, picked=None):
+    def _hinge_jacobian(self, t, state, kin=None, picked=None, reaction=False):
         """``(d phi_dd / d phi, d phi_dd / d phi_dot)`` (nh, nh) of the hooks' hinges, diagonal: the
         hook dampers (c_h l_h^2 / I ~ 2e4 1/s) and the contact on the hooks' small inertia (~5e6
         1/s^2) are the stiff part of the rocket.
@@ -385,7 +393,18 @@ class PassiveLandingScene(AbstractScene):
         1e-2 s, 0.1 s, rtol 1e-4; 2-core CPU, float64), for the same steps
         (``docs/stiff_integrator.md``). ``kin``, ``picked``: the cables' kinematics and the
         contact pick at ``state`` if computed (the contact's derivative then runs on those pairs
-        only, as the vector field's JVP does)."""
+        only, as the vector field's JVP does).
+
+        ``reaction=True`` also returns the rocket bodies' rows through the spring-dampers,
+        ``(G_v, G_w, -k_h l_h^2, -c_h l_h^2)`` (:attr:`.stiff.CableLinearisation.hinge_reaction`):
+        one JVP in the torques per hinge (``nh`` Cholesky solves, no derivative of the mass
+        matrix) gives the inverse mass matrix's hinge columns. The spring-damper is a force pair
+        between the hook and its body; with only the hook's side implicit, the W-method integrates
+        the two sides differently and the pair does work: the full level's energy budget drifted
+        to 7.9e-5 of the initial energy on the design case at rtol 1e-5 (14,432 steps), and closes
+        to 2.1e-6 with both sides (14,393 steps; ``docs/stiff_integrator.md``). The contact's
+        torque stays out of these rows: on a light hook the contact's direct push on the body and
+        its torque through the hinge cancel."""
         rocket = state.rocket
         phi, rate = _hinge_rows(state)
         one, zero = jnp.ones_like(phi), jnp.zeros_like(phi)
@@ -404,13 +423,18 @@ class PassiveLandingScene(AbstractScene):
         )
 
         def accel(tau):  # linear in the torques: its derivative needs no loads
-            return self.rocket.derivative(rocket, self.gravity, hinge_torques_N_m=tau).hinge_rate
+            return self.rocket.derivative(rocket, self.gravity, hinge_torques_N_m=tau)
 
-        g = jax.jvp(accel, (zero,), (one,))[1]
         p = self.rocket.params
-        K = g * (dtau[0] - p.hook_rotational_stiffness_N_m_per_rad)
-        C = g * (dtau[1] - p.hook_rotational_damping_N_m_s_per_rad)
-        return jnp.diag(K), jnp.diag(C)
+        k, c = p.hook_rotational_stiffness_N_m_per_rad, p.hook_rotational_damping_N_m_s_per_rad
+        if not reaction:
+            g = jax.jvp(accel, (zero,), (one,))[1].hinge_rate
+            return jnp.diag(g * (dtau[0] - k)), jnp.diag(g * (dtau[1] - c))
+        # a unit torque on each hinge in turn: the inverse mass matrix's hinge columns
+        cols = jax.vmap(lambda e: jax.jvp(accel, (zero,), (e,))[1])(jnp.eye(phi.shape[0], dtype=phi.dtype))
+        g = jnp.diagonal(cols.hinge_rate)
+        K, C = jnp.diag(g * (dtau[0] - k)), jnp.diag(g * (dtau[1] - c))
+        return K, C, (cols.v, cols.omega_body, -k * one, -c * one)
 
     def num_saved(self, t1) -> int:
         """Number of default saved samples over ``[0, t1]``: ``n_save`` if given, else
@@ -657,23 +681,23 @@ explicit solvers run the ale and full levels at their cheapest (Bosh3, ``LEVEL_D
 cables' mode rings (a_max 7.6 g on the full level's design case), so it suits solver benchmarks and
 tests of the numerics, not criteria."""
 
-LEVEL_CABLE_MESH = {"ale": (80, 16), "full": (64, 32)}
+LEVEL_CABLE_MESH = {"ale": (80, 16), "full": (80, 16)}
 """Each level's ALE cable mesh unless given: (elements per arresting span, of them fine elements over
 +-3 m next to each hook). Chosen by measurement with the hook as a sliding node
 (:data:`DEFAULT_HOOK_CONTACT`; ``experiments/convergence_landing.py``, ``docs/arresting_validation.md``):
 
-* ``full``: 64 (32 fine, 0.19 m): 128 elements move z_max, a_max and sigma_max by at most 0.9% on
-  the design case (a_max 5.18 / 5.13 g) and on section IV.A's deviated case (6.04 / 6.09 g); at 32
-  the design case's a_max reads 11% high. 80 (16 fine) reads a_max as well in 1.6x fewer steps but
-  leaves the energy budget open by 2e-4 at the level's rtol (the sprung hooks' drift,
-  ``docs/stiff_integrator.md``).
 * ``ale``: 80 (16 fine, 0.375 m): a_max within 0.3-1.2% of 128-256 elements on both cases, the
   energy budget closed to 3e-6, in 0.6x the steps of 64 (32 fine), which reads the design case's
-  a_max 3.6-4.1% high at this level."""
+  a_max 3.6-4.1% high at this level.
+* ``full``: 80 (16 fine): a_max within 0.1% of 128 elements (64 fine) on the design case (5.13 g)
+  and on section IV.A's deviated case (6.09 g), where 64 (32 fine), the default before, reads them
+  within 0.9%, in 0.64x its steps, the energy budget closed to 6e-6 with the hooks' spring-dampers
+  on both sides in the W-method's ``J`` (``docs/stiff_integrator.md``); at 32 (16 fine) the design
+  case's a_max reads 11% high."""
 
 DEFAULT_SPAN_ELEMENTS, DEFAULT_FINE_ELEMENTS = LEVEL_CABLE_MESH["full"]
 """The full level's mesh (:data:`LEVEL_CABLE_MESH`): ALE elements per arresting span, and of them
-equal fine elements next to each hook (0.19 m over +-3 m)."""
+equal fine elements next to each hook (0.375 m over +-3 m)."""
 
 
 def cable_mesh_at(fidelity: str, n_span_elements: int | None = None, n_fine: int | None = None) -> tuple[int, int]:
@@ -823,11 +847,10 @@ def passive_landing_scene(
       0.5 m/s halves the steps against 0.2 m/s (``docs/notes/contact_slip.md``; 0.3 s landings end
       before the hook load grows and do not show the difference).
     * the hook as a sliding node of its cable (:data:`DEFAULT_HOOK_CONTACT`) on the level's mesh
-      (``n_span_elements``, ``n_fine`` None: :data:`LEVEL_CABLE_MESH`): at the full level 64 span
-      elements, 32 of them over +-3 m next to each hook (0.19 m), 2 per tower; at the ale level 80,
-      16 of them fine (0.375 m). The design case's and the deviated case's criteria converge there
-      (a_max within 0.9% of 128 elements at the full level, within 0.3-1.2% of 128-256 at the ale
-      level; ``docs/arresting_validation.md``). ``hook_contact="capsule", n_span_elements=32, n_fine=16``
+      (``n_span_elements``, ``n_fine`` None: :data:`LEVEL_CABLE_MESH`): 80 span elements, 16 of
+      them over +-3 m next to each hook (0.375 m), 2 per tower, at both levels. The design case's
+      and the deviated case's criteria converge there (a_max within 0.1% of 128 elements at the
+      full level, within 0.3-1.2% of 128-256 at the ale level; ``docs/arresting_validation.md``). ``hook_contact="capsule", n_span_elements=32, n_fine=16``
       (the default before) runs 1.5x (ale) and 1.4x (full) faster on the design case
       (``experiments/bench_hook_model.py``): there its a_max reads 2% low, on
       the deviated case a_max 14% high and sigma_max unconverged (765-846 MPa over the meshes).

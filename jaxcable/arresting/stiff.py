@@ -71,6 +71,16 @@ class CableLinearisation(eqx.Module):
     bodies held fixed), or None (hooks welded)."""
     hinge_rows: Callable | None = eqx.field(static=True, default=None)
     """``hinge_rows(state) -> (hinge angles (4,), hinge rates (4,))``."""
+    hinge_reaction: tuple | None = None
+    """``(G_v, G_w, k, c)``: the rocket bodies' rows of the same ``J`` through the hinges'
+    spring-dampers, ``d (v_dot, omega_dot) / d phi = G k`` and ``/ d phi_dot = G c``: ``G_v``,
+    ``G_w`` (nh, nb, 3) the rocket's accelerations per unit hinge torque (the inverse mass matrix's
+    columns), ``k = -k_h l_h^2``, ``c = -c_h l_h^2`` (nh,). The spring-damper is a force pair
+    between a hook and its body: with only the hook's side in ``J``, the pair is integrated
+    differently on its two sides and does work (the full level's energy drift,
+    ``docs/stiff_integrator.md``). None: the rocket's rows explicit."""
+    speed_rows: Callable | None = eqx.field(static=True, default=None)
+    """``speed_rows(state) -> (v (nb, 3), omega_body (nb, 3))`` of the rocket's bodies."""
     coupling: "HookCoupling | None" = None
     """The cable rows' columns on the rocket's coordinates (the contact forces move with the
     hooks), applied as a JVP per solve; None: the hooks held fixed (the rocket's columns zero)."""
@@ -145,7 +155,15 @@ class _CableFactors(eqx.Module):
             b_a, b_w = self.lin.hinge_rows(rhs)
             A_h = (beta**2) * jnp.eye(K_h.shape[0], dtype=K_h.dtype) - beta * C_h - K_h
             x_w = _zz(_small_inverse(A_h[None]), (beta * b_w + K_h @ b_a)[None])[0]
-            out = eqx.tree_at(self.lin.hinge_rows, out, ((b_a + x_w) / beta, x_w))
+            x_a = (b_a + x_w) / beta
+            out = eqx.tree_at(self.lin.hinge_rows, out, (x_a, x_w))
+            if self.lin.hinge_reaction is not None:
+                # the rocket's speeds: beta x_v - G (k x_a + c x_w) = b_v, after the hinges
+                G_v, G_w, k, c = self.lin.hinge_reaction
+                tau = k * x_a + c * x_w
+                b_v, b_o = self.lin.speed_rows(rhs)
+                new = (b_v + jnp.einsum("h,hbi->bi", tau, G_v)) / beta, (b_o + jnp.einsum("h,hbi->bi", tau, G_w)) / beta
+                out = eqx.tree_at(self.lin.speed_rows, out, new)
         bq_r, bq_s, bq_h, bq_u, bv_r, bv_s, bv_h, bv_u = self.lin.rows(rhs)
         bq_z, bv_z = _slow(bq_s, bq_h, bq_u), _slow(bv_s, bv_h, bv_u)
         g_r = (
@@ -271,4 +289,11 @@ def dense_reference(lin: CableLinearisation, state):
         J = J.at[ia[:, None], iw[None, :]].set(jnp.eye(ia.size, dtype=flat.dtype))
         J = J.at[iw[:, None], ia[None, :]].set(K_h)
         J = J.at[iw[:, None], iw[None, :]].set(C_h)
+        if lin.hinge_reaction is not None:
+            G_v, G_w, k, c = lin.hinge_reaction
+            i_v, i_o = (jnp.asarray(x).astype(int).reshape(-1) for x in lin.speed_rows(unravel(jnp.arange(n, dtype=flat.dtype))))
+            G = jnp.concatenate([G_v.reshape(G_v.shape[0], -1), G_w.reshape(G_w.shape[0], -1)], axis=1).T  # (speeds, nh)
+            i_s = jnp.concatenate([i_v, i_o])
+            J = J.at[i_s[:, None], ia[None, :]].set(G * k[None, :])
+            J = J.at[i_s[:, None], iw[None, :]].set(G * c[None, :])
     return DenseLinearisation(J, unravel)

@@ -233,8 +233,8 @@ def test_landing_with_hook_nodes_closes_the_energy_budget():
 
 def test_sweeps_carry_the_hook_model_in_their_identity():
     """A sweep's rows resume only under the same hook model and mesh: ``describe`` names them at the
-    ale/full levels (the default: the node on the level's mesh, 80 span elements with 16 fine at ale,
-    64 with 32 at full), and stays as before for the capsule contact on 32 span elements (16 fine),
+    ale/full levels (the default: the node on the level's mesh, 80 span elements with 16 fine at
+    both), and stays as before for the capsule contact on 32 span elements (16 fine),
     so that sweeps written with those still resume with them given; the rigid level names neither
     and refuses the node, whose cables have no nodes."""
     from jaxcable.arresting.sweep import passive_case_fn
@@ -245,7 +245,7 @@ def test_sweeps_carry_the_hook_model_in_their_identity():
         assert (d["hook_contact"], d["n_span_elements"], d["n_fine"]) == ("node", 80, 16)
         assert factory("ale", hook_contact="node", n_span_elements=80, n_fine=16).describe() == d
         full = factory("full").describe()
-        assert (full["hook_contact"], full["n_span_elements"], full["n_fine"]) == ("node", 64, 32)
+        assert (full["hook_contact"], full["n_span_elements"], full["n_fine"]) == ("node", 80, 16)
         assert factory("ale", n_span_elements=64, n_fine=32).describe()["n_fine"] == 32
         assert factory("full", hook_contact="capsule").describe()["hook_contact"] == "capsule"
         assert factory("full", n_span_elements=48).describe()["n_span_elements"] == 48

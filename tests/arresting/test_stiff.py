@@ -363,6 +363,42 @@ def test_hinge_jacobian_is_the_vector_fields_diagonal():
         assert np.abs(true - np.diag(d)).max() < 0.02 * np.abs(d).min()
 
 
+def test_hinge_reaction_rows_are_the_vector_fields_own_and_solve_like_the_dense_lu():
+    """The rocket bodies' rows of ``J`` through the hooks' spring-dampers (``hinge_reaction``, the
+    other side of the force pair the hinge rows hold): with the hooks 1 m clear of the cables and
+    at rest on their hinges, the rocket's accelerations depend on the hinge rates through the
+    dampers alone, so their columns must equal ``jax.jacfwd`` of the vector field to round-off (a
+    wrong sign or a missing inverse-inertia column misses by 100%); and the solve with those rows
+    (hinges, then the rocket's speeds, then the cables) must equal the dense LU of the same ``J``
+    for a random right-hand side."""
+    from jaxcable.arresting.passive import _hinge_rows
+
+    scene = passive_landing_scene("full", t_end_s=T_END, hook_contact="capsule", **MESH)
+    y = scene.initial_state()
+    y = eqx.tree_at(lambda s: (s.rocket.r, s.rocket.hinge_rate), y, (y.rocket.r.at[:, 2].add(1.0), 0.0 * y.rocket.hinge_rate))
+    flat, unravel = ravel_pytree(y)
+    b = unravel(jnp.asarray(np.random.default_rng(2).normal(size=flat.shape)))
+
+    @jax.jit
+    def parts(y, b):
+        lin = scene.stiff_linearisation(0.0, y)
+        def speeds(r):
+            d = scene.vector_field(0.0, eqx.tree_at(_hinge_rows, y, (_hinge_rows(y)[0], r))).rocket
+            return jnp.concatenate([d.v.reshape(-1), d.omega_body.reshape(-1)])
+
+        true = jax.jacfwd(speeds)(_hinge_rows(y)[1])  # (speeds, hinges)
+        solves = [ravel_pytree(lin.factor(beta).solve(b))[0] for beta in (1e3, 1e5)]
+        dense = [ravel_pytree(dense_reference(lin, y).factor(beta).solve(b))[0] for beta in (1e3, 1e5)]
+        return lin.hinge_reaction, true, solves, dense
+
+    (G_v, G_w, _, c), true, solves, dense = parts(y, b)
+    G = np.concatenate([np.asarray(G_v).reshape(4, -1), np.asarray(G_w).reshape(4, -1)], axis=1).T
+    np.testing.assert_allclose(G * np.asarray(c)[None, :], np.asarray(true), rtol=1e-9, atol=1e-12 * np.abs(true).max())
+    assert np.abs(true).max() > 1.0  # the dampers' reaction is there to be checked
+    for x_s, x_d in zip(solves, dense):
+        np.testing.assert_allclose(np.asarray(x_s), np.asarray(x_d), atol=1e-10 * np.abs(np.asarray(x_d)).max())
+
+
 @pytest.mark.parametrize("hook_contact", ["capsule", "node"])
 def test_block_assembly_equals_the_dense_chain_rule(hook_contact):
     """:meth:`CableSubsystem.assemble_stiff_blocks` (element by element, on the nonzero rows of
