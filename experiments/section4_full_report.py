@@ -5,7 +5,7 @@ The 3 x 100 two-phase cases at the full level take hours on a 2-core CPU (about 
 compiled), so they run as resumable sweeps, one CSV a scenario::
 
     jaxcable sweep --phase full --fidelity full --scenario I --n 100 \\
-        --out experiments/results/sweep_two_phase_full_node_I_n100.csv
+        --span-elements 64 --fine-elements 32 --out experiments/results/sweep_two_phase_full_node_I_n100.csv
 
 (rerun the same command to go on after an interruption; the former default's records,
 ``sweep_two_phase_full_calibrated_*``, ran with ``--hook-contact capsule --span-elements 32

@@ -5,7 +5,7 @@ Reads, for each scenario whose node CSV exists, the rows both sweeps have run (t
 resumable and may be partial)::
 
     jaxcable sweep --phase full --fidelity full --scenario I --n 100 \\
-        --out experiments/results/sweep_two_phase_full_node_I_n100.csv
+        --span-elements 64 --fine-elements 32 --out experiments/results/sweep_two_phase_full_node_I_n100.csv
 
 against ``sweep_two_phase_full_calibrated_<S>_n100.csv`` (capsule, 32 elements). Reports the success
 and a_max rates of the same cases under both models, the verdicts that turn, and the change of

@@ -4,7 +4,7 @@ against the same cases at the defaults, case by case.
 The screening sweep::
 
     jaxcable sweep --phase full --fidelity full --scenario I --n 100 --rtol 1e-4 --t-end 1.2 \\
-        --out experiments/results/sweep_two_phase_full_node_I_n100_screen.csv
+        --span-elements 64 --fine-elements 32 --out experiments/results/sweep_two_phase_full_node_I_n100_screen.csv
 
 against ``sweep_two_phase_full_node_<S>_n100.csv`` (the defaults: rtol 1e-5, 2 s after capture).
 Reports the verdicts that agree, the criteria's deviations, the W-method's steps, and the band

@@ -128,11 +128,11 @@ def test_four_times_the_hook_damper_at_the_full_level():
 def test_full_level_energy_budget_closes_with_the_tolerance():
     """The full level's energy budget over the first 0.6 s of the design case (the capsule contact
     on 32 span elements, the default damping, rosw): below 1e-4 of the initial energy at rtol 1e-6, and a truncation error, not
-    a missing term: ten times the tolerance gives several times the error. Measured (2-core AMD
-    EPYC, JAX 0.10.2 CPU, float64): 3.2e-4 at rtol 1e-5 (8,342 steps), 3.1e-5 at 1e-6 (17,484).
-    The ale level, same cables and solver, closes to 1.5e-6 at 1e-5; at the full level the drift
-    comes with the stiff hook damper (c_h / 100: 6.3e-5 at 1e-5) and not with the flexible beams
-    (a single-body rocket: 2.6e-4)."""
+    a missing term: ten times the tolerance gives several times the error. Measured (2-core Intel
+    Xeon, JAX 0.10.2 CPU, float64): 2.5e-5 at rtol 1e-5 (8,362 steps), 2.3e-6 at 1e-6 (17,586).
+    Before the W-method's ``J`` held the hooks' spring-dampers on the rocket bodies' side too
+    (``CableLinearisation.hinge_reaction``) the budget drifted to 3.2e-4 and 3.1e-5 here; the ale
+    level, same cables and solver, closes to 1.5e-6 at 1e-5."""
     budgets = {}
     for rtol in (1e-5, 1e-6):
         # the measured model: the capsule contact on 32 span elements (the default before the node on
