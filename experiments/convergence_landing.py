@@ -43,7 +43,9 @@ Goals: z_max within 1%, the criteria a_max and sigma_max (CFC 60) within 3% of t
 Writes ``convergence_landing.{json,md}`` after every run (a killed run resumes: rows already in the
 JSON for the same beta and their level's default mesh are kept). ``convergence_landing_mesh16.{json,md}`` and
 ``convergence_landing_mesh32_node.{json,md}`` are records of the same study with 16 span elements (8
-fine, capsule) and 32 (16 fine, node) as the default. Usage::
+fine, capsule) and 32 (16 fine, node) as the default; ``convergence_landing_{ale80,full80}_node``
+the study of each level at its default mesh (80 span elements, 16 fine; ``--tag _ale80``,
+``--tag _full80``), ``convergence_landing_node`` at the former default (64, 32 fine). Usage::
 
     python experiments/convergence_landing.py --levels ale --variants default mesh_x2
     python experiments/convergence_landing.py --levels full --cases iva --variants default mesh_x2  # ~10 min
