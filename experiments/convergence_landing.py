@@ -7,9 +7,8 @@ Two cases at the ``ale`` and ``full`` levels, at the calibrated cable damping
 * ``iva``: section IV.A's deviated case, scenario I: the tracking phase (rigid rocket, seed 0) to
   capture, then the passive phase from the captured state, ``--iva-t-end`` s.
 
-Variants, each against the level's default (the level's mesh, ``passive.LEVEL_CABLE_MESH``: 64 span
-elements with 32 fine at the full level, 80 with 16 at the ale level, or ``--mesh`` for both; the
-hook as a sliding node,
+Variants, each against the level's default (the level's mesh, ``passive.LEVEL_CABLE_MESH``: 80 span
+elements with 16 fine at both levels, or ``--mesh`` for both; the hook as a sliding node,
 or ``--hook-contact capsule``; the contact law of ``passive.scene_contact_law``, the level's solver
 settings, 1 ms saves):
 

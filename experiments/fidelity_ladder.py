@@ -2,8 +2,8 @@
 
 Which level can a user afford for a stated error? Two cases, each level at its defaults (the
 calibrated cable damping, the hook as a sliding node on the level's mesh (``LEVEL_CABLE_MESH``:
-64 span elements with 32 fine at the full level, 80 with 16 at the ale level), the level's solver
-settings from ``level_solver_settings``):
+80 span elements with 16 fine at both levels), the level's solver settings from
+``level_solver_settings``):
 
 * the design case (Table 1, centred vertical capture at 20 m/s; ``run_landing``), levels
   ``1dof``, ``rigid``, ``ale``, ``full``, ``--t-end`` seconds (default 1.2; the rocket stops near

@@ -363,8 +363,8 @@ class PassiveLandingScene(AbstractScene):
         blocks = self.cables.stiff_blocks(state.cables, hooks, t, kin=kin, picked=picked)
         hinge, reaction = None, None
         if state.rocket.hinge_rate.shape[0]:
-            *hinge, reaction = self._hinge_jacobian(t, state, kin, picked, reaction=True)
-            hinge = tuple(hinge)
+            K_h, C_h, reaction = self._hinge_jacobian(t, state, kin, picked)
+            hinge = (K_h, C_h)
         coupling = HookCoupling.at(self.cables, self.rocket, state.cables, state.rocket, rows=_rocket_rows, kin=kin, picked=picked) if hook_coupling else None  # fmt: skip
         return CableLinearisation(
             blocks, rows=_cable_rows, active=self.cables.subsystems.route.active_slots, hinge=hinge,
@@ -372,17 +372,17 @@ class PassiveLandingScene(AbstractScene):
             hinge_reaction=reaction, speed_rows=_speed_rows if reaction is not None else None,
         )  # fmt: skip
 
-    def _hinge_jacobian(self, t, state, kin=None, picked=None, reaction=False):
-        """``(d phi_dd / d phi, d phi_dd / d phi_dot)`` (nh, nh) of the hooks' hinges, diagonal: the
-        hook dampers (c_h l_h^2 / I ~ 2e4 1/s) and the contact on the hooks' small inertia (~5e6
-        1/s^2) are the stiff part of the rocket.
+    def _hinge_jacobian(self, t, state, kin=None, picked=None):
+        """``(d phi_dd / d phi, d phi_dd / d phi_dot, reaction)``: the first two (nh, nh) the hooks'
+        hinge rows, diagonal: the hook dampers (c_h l_h^2 / I ~ 2e4 1/s) and the contact on the
+        hooks' small inertia (~5e6 1/s^2) are the stiff part of the rocket.
 
         ``phi_dd = G tau + ...`` with ``tau`` the hinge torques (spring-damper ``-k_h l_h^2 phi -
         c_h l_h^2 phi_dot``, and the contact's, ``sum_p F_p . dP_p/dphi`` over the hook's points)
         and ``G`` the hinges' rows of the inverse mass matrix. Each hook's contact sees only its own
         points, so one tangent on every hinge at once gives each hook's own torque derivative (one
         JVP of the contact for the angles, one for the rates), and one JVP of the rocket's
-        equations in the torques gives ``G 1``. Left out: the hooks' coupling through the rocket's
+        equations per unit hinge torque gives ``G``'s columns (its diagonal here). Left out: the hooks' coupling through the rocket's
         inertia (the off-diagonal entries: 0.3% of the diagonal in angle, 1-3% in rate on the
         design case), the change of the mass matrix and of the lever with the angle, and the
         contact's push on the rocket's bodies (their mass is 10^2-10^3 times the hook's); a
@@ -395,10 +395,9 @@ class PassiveLandingScene(AbstractScene):
         contact pick at ``state`` if computed (the contact's derivative then runs on those pairs
         only, as the vector field's JVP does).
 
-        ``reaction=True`` also returns the rocket bodies' rows through the spring-dampers,
-        ``(G_v, G_w, -k_h l_h^2, -c_h l_h^2)`` (:attr:`.stiff.CableLinearisation.hinge_reaction`):
-        one JVP in the torques per hinge (``nh`` Cholesky solves, no derivative of the mass
-        matrix) gives the inverse mass matrix's hinge columns. The spring-damper is a force pair
+        ``reaction`` is the rocket bodies' rows through the spring-dampers, ``(G_v, G_w, -k_h
+        l_h^2, -c_h l_h^2)`` (:attr:`.stiff.CableLinearisation.hinge_reaction`), from the same
+        columns of ``G`` (``nh`` Cholesky solves, no derivative of the mass matrix). The spring-damper is a force pair
         between the hook and its body; with only the hook's side implicit, the W-method integrates
         the two sides differently and the pair does work: the full level's energy budget drifted
         to 7.9e-5 of the initial energy on the design case at rtol 1e-5 (14,432 steps), and closes
@@ -427,9 +426,6 @@ class PassiveLandingScene(AbstractScene):
 
         p = self.rocket.params
         k, c = p.hook_rotational_stiffness_N_m_per_rad, p.hook_rotational_damping_N_m_s_per_rad
-        if not reaction:
-            g = jax.jvp(accel, (zero,), (one,))[1].hinge_rate
-            return jnp.diag(g * (dtau[0] - k)), jnp.diag(g * (dtau[1] - c))
         # a unit torque on each hinge in turn: the inverse mass matrix's hinge columns
         cols = jax.vmap(lambda e: jax.jvp(accel, (zero,), (e,))[1])(jnp.eye(phi.shape[0], dtype=phi.dtype))
         g = jnp.diagonal(cols.hinge_rate)
@@ -850,10 +846,12 @@ def passive_landing_scene(
       (``n_span_elements``, ``n_fine`` None: :data:`LEVEL_CABLE_MESH`): 80 span elements, 16 of
       them over +-3 m next to each hook (0.375 m), 2 per tower, at both levels. The design case's
       and the deviated case's criteria converge there (a_max within 0.1% of 128 elements at the
-      full level, within 0.3-1.2% of 128-256 at the ale level; ``docs/arresting_validation.md``). ``hook_contact="capsule", n_span_elements=32, n_fine=16``
-      (the default before) runs 1.5x (ale) and 1.4x (full) faster on the design case
-      (``experiments/bench_hook_model.py``): there its a_max reads 2% low, on
-      the deviated case a_max 14% high and sigma_max unconverged (765-846 MPa over the meshes).
+      full level, within 0.3-1.2% of 128-256 at the ale level; ``docs/arresting_validation.md``).
+      ``hook_contact="capsule", n_span_elements=32, n_fine=16`` (a former default) ran 1.5x (ale)
+      and 1.4x (full) faster than the node on 64 elements (``experiments/bench_hook_model.py``),
+      but takes about 1.3x the steps of the node on 80 (16 fine); on the design case its a_max
+      reads 2% low, on the deviated case a_max 14% high and sigma_max unconverged (765-846 MPa
+      over the meshes).
 
     ``frame_centre_xy`` (2,) [m]: centre of the capture frame (the sliders' positions) at capture;
     default: under O (perfect tracking). The two-phase scene passes the tracked frame's centre.

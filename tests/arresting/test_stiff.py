@@ -349,7 +349,7 @@ def test_hinge_jacobian_is_the_vector_fields_diagonal():
 
     @jax.jit
     def both(y):
-        K, C = scene._hinge_jacobian(0.0, y)
+        K, C, _ = scene._hinge_jacobian(0.0, y)
         acc = lambda p, r: scene.vector_field(0.0, eqx.tree_at(_hinge_rows, y, (p, r))).rocket.hinge_rate
         return K, C, *jax.jacfwd(acc, argnums=(0, 1))(*_hinge_rows(y))
 
