@@ -4,12 +4,17 @@ test).
 The 3 x 100 two-phase cases at the full level take hours on a 2-core CPU (about a minute a case once
 compiled), so they run as resumable sweeps, one CSV a scenario::
 
+    jaxcable sweep --phase full --fidelity full --scenario I --n 100 --rtol 1e-4 --t-end 1.2 \\
+        --out experiments/results/sweep_two_phase_full_node80_I_n100_screen.csv
     jaxcable sweep --phase full --fidelity full --scenario I --n 100 \\
-        --span-elements 64 --fine-elements 32 --out experiments/results/sweep_two_phase_full_node_I_n100.csv
+        --confirm experiments/results/sweep_two_phase_full_node80_I_n100_screen.csv \\
+        --out experiments/results/sweep_two_phase_full_node80_I_n100_confirm.csv
 
-(rerun the same command to go on after an interruption; the former default's records,
-``sweep_two_phase_full_calibrated_*``, ran with ``--hook-contact capsule --span-elements 32
---fine-elements 16``). This script reads the CSVs that exist and
+(a screening sweep, then its cases near a limit at the defaults, docs/sweeps.md; rerun the same
+command to go on after an interruption). The earlier records: ``sweep_two_phase_full_node_*``, the
+node on 64 span elements (``--span-elements 64 --fine-elements 32``), and
+``sweep_two_phase_full_calibrated_*``, the capsule contact (``--hook-contact capsule
+--span-elements 32 --fine-elements 16``). This script reads the CSVs that exist and
 writes, for the cases done so far, the summary in the form of Tables 5-7 and 9 (``jaxcable sweep``'s
 own summary), Fig 21's criteria over the landing plane, and the mechanism behind the a_max failures:
 a_max against the capture's distance from the frame's centre, beside the design case's value at the
@@ -18,8 +23,9 @@ run here, about 3 min for 100 cases with its compilation, its rows in the git-ig
 ``experiments/out/section4_full/``): which verdicts the full level changes. Writes ``section4_full.{json,md}``, ``section4_full_plane_<S>.png``
 and ``section4_full_offset.png``. Usage::
 
-    python experiments/section4_full_report.py                  # the default hook model (node, 64 elements)
-    python experiments/section4_full_report.py --model capsule  # the records of the former default
+    python experiments/section4_full_report.py                  # the default (node, 80 elements)
+    python experiments/section4_full_report.py --model node     # the node on 64 elements
+    python experiments/section4_full_report.py --model capsule  # the capsule on 32 elements
 """
 
 from __future__ import annotations
@@ -28,7 +34,13 @@ import argparse
 
 import _report
 import numpy as np
-from section4_node_vs_capsule import NODE, NODE_CONFIRMED, first_csv
+from section4_node_vs_capsule import (
+    NODE,
+    NODE80,
+    NODE80_CONFIRMED,
+    NODE_CONFIRMED,
+    first_csv,
+)
 
 from jaxcable.arresting.calibration import CALIBRATED_CABLE_DAMPING_S
 from jaxcable.arresting.passive import LandingCriteria
@@ -43,7 +55,9 @@ CSV = "sweep_two_phase_full_calibrated_{}_n100.csv"
 MODELS = {
     "capsule": {"csvs": (CSV,), "stem": STEM, "label": "the capsule contact on 32 span elements, the default when recorded"},
     "node": {"csvs": (NODE, NODE_CONFIRMED), "stem": STEM + "_node",
-             "label": "the hook as a sliding node on 64 span elements, the default"},
+             "label": "the hook as a sliding node on 64 span elements, 32 fine, the default when recorded"},
+    "node80": {"csvs": (NODE80, NODE80_CONFIRMED), "stem": STEM + "_node80",
+               "label": "the hook as a sliding node on 80 span elements, 16 fine, the default"},
 }  # fmt: skip
 """The recorded sweeps, by hook model: the CSVs tried in turn (the defaults' sweep, else a screening
 sweep with its cases near a limit confirmed at the defaults, docs/sweeps.md), the report's stem."""
@@ -123,7 +137,7 @@ def main():
     p.add_argument("--scenarios", nargs="+", default=["I", "II", "III"], choices=["I", "II", "III"])
     p.add_argument("--out", default=None)
     p.add_argument("--no-rigid", action="store_true", help="skip the rigid level's rows of the same cases")
-    p.add_argument("--model", choices=sorted(MODELS), default="node", help="whose recorded sweeps (default node)")
+    p.add_argument("--model", choices=sorted(MODELS), default="node80", help="whose recorded sweeps (default node80)")
     args = p.parse_args()
     model = MODELS[args.model]
     stem = model["stem"]

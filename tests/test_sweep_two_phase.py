@@ -177,9 +177,10 @@ def test_ale_level_rows_equal_single_two_phase_landings(tmp_path):
     :func:`run_two_phase` at the ale level case by case. 0.02 s after capture (the hooks' impact on
     the cables: ~300 steps a case)."""
     t_end = 0.02
-    # a lightly damped cable (explicit Bosh3): the W-method at the default damping took 183 s here
-    # against 65 s (2 cores), and its vmapped rows are checked in tests/arresting/test_stiff.py
-    light = {"cable_damping_s": LIGHT_CABLE_DAMPING_S}
+    # a lightly damped cable with the capsule contact (explicit Bosh3: the same steps in the batch and
+    # alone): the W-method at the default damping took 183 s here against 65 s (2 cores), and its
+    # vmapped rows are checked in tests/arresting/test_stiff.py
+    light = {"cable_damping_s": LIGHT_CABLE_DAMPING_S, "hook_contact": "capsule"}
     table = run_qmc_sweep(SCENARIO, 2, phase="full", fidelity="ale", out=tmp_path / "ale.csv", seed=SEED, batch_size=2,
                           progress=False, t_end_s=t_end, **light)  # fmt: skip
     assert not table["failed"].any() and table["captured"].all()

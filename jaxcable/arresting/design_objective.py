@@ -96,10 +96,11 @@ def _with_buffer(scene, buffer: BufferDevice):
 
 
 def case_solver(problem: DesignProblem):
-    """The solver of the problem's cases: the level's for its cable damping
-    (:func:`.landing.level_solver_settings`), as a vmapped batch runs it (the W-method relinearised
+    """The solver of the problem's cases: the level's for its cable damping and its scenes' hook
+    model (:func:`.landing.level_solver_settings`), as a vmapped batch runs it (the W-method relinearised
     at every step, :func:`.landing.batched_solver`)."""
-    return batched_solver(level_solver_settings(problem.fidelity, problem.cable_damping_s)[0])
+    hook_contact = getattr(getattr(problem.scenes, "cables", None), "hook_contact", None)
+    return batched_solver(level_solver_settings(problem.fidelity, problem.cable_damping_s, hook_contact)[0])
 
 
 def _one_case(problem: DesignProblem, scene, adjoint):

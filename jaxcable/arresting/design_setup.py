@@ -426,7 +426,9 @@ def design_problem(
         settings.setdefault("gain_per_s", scenario_settings(scenario)["a_p"])
         settings.setdefault("capture_reference_m", capture_reference(layout if layout_given else None))
     if fidelity in LEVEL_DEFAULTS:  # the level's measured tolerances unless given
-        settings.setdefault("rtol", level_solver_settings(fidelity, settings.get("cable_damping_s"))[1])
+        settings.setdefault(
+            "rtol", level_solver_settings(fidelity, settings.get("cable_damping_s"), (scene_options or {}).get("hook_contact"))[1]
+        )
         settings.setdefault("atol", settings["rtol"])
     buffer = BufferDevice() if buffer is None else buffer
     layout = ArrestingLayout() if layout is None else layout

@@ -33,6 +33,7 @@ from jaxcable.arresting.passive import (
     check_t_end,
     criteria_met,
     filtered_maxima,
+    hook_contact_at,
     landing_outputs,
     passive_landing_scene,
 )
@@ -54,14 +55,24 @@ LEVEL_DEFAULTS = {
     # case 20.4 -> 5.5 s, two-phase full 16.2 -> 6.4 s (docs/notes/contact_slip.md). Pass rtol/atol for tighter runs, and for stiffened
     # variants: with 1000x stiffer, damped (beta 1e-2 s) cables, 1e-4 errs by 2.0% in sigma_max
     # (1e-5: 0.2%; tests/arresting/test_passive.py, the full level's 1-DOF limit).
+    # ale/full: these settings serve only the capsule contact below STIFF_DAMPING_S; with the hook
+    # as a sliding node (the default) the levels run STIFF_LEVEL_DEFAULTS at every damping.
     "rigid": ("tsit5", 1e-6, 1e-6, 200_000),
     "ale": ("bosh3", 1e-4, 1e-4, 400_000),
     "full": ("bosh3", 1e-4, 1e-4, 400_000),
 }
 
 STIFF_DAMPING_S = {"ale": 5e-4, "full": 1e-3}
-"""Cable damping beta [s] per level from which the ale and full levels run the W-method by default
-(``STIFF_LEVEL_DEFAULTS``). Explicit steps shrink with beta (stability: ``dt <= (2/omega)(sqrt(1 +
+"""With the capsule hook contact (``hook_contact="capsule"``, a former default): the cable damping
+beta [s] per level from which the ale and full levels run the W-method by default
+(``STIFF_LEVEL_DEFAULTS``). With the hook as a sliding node (the scenes' default) they run it at
+every beta: there Bosh3's step is 4-5e-6 s already at beta = 1e-5 s (the capsule's on 32 span
+elements: 4e-5 s) and shrinks with beta like the capsule's, and on the design
+case at beta = 1e-5 s on the default mesh Bosh3 took 69,643 steps for the first 0.3 s at the ale
+level (5.8x the time of rosw at 1e-5, 10x that of the level's default rtol 3e-5) and had covered
+0.50 s in 100,000 steps at the full level (about 6x the time of rosw at 1e-5 for the whole second at
+its pace); ``experiments/bench_stiff.py --default-model``, ``experiments/results/bench_stiff_{ale,full_1s}_default.md``,
+docs/stiff_integrator.md. The measurements of the capsule's crossover: Explicit steps shrink with beta (stability: ``dt <= (2/omega)(sqrt(1 +
 zeta^2) - zeta)``, ``zeta = beta omega / 2``); the W-method treats the cables' elasticity and
 damping, the contact on the cable nodes and the hooks' hinges implicitly
 (:mod:`jaxcable.arresting.stiff`), so its steps are set by accuracy. Measured on the design case,
@@ -98,15 +109,18 @@ STIFF_LEVEL_DEFAULTS = {
 }
 
 
-def level_solver_settings(fidelity: str, cable_damping_s=None):
+def level_solver_settings(fidelity: str, cable_damping_s=None, hook_contact: str | None = None):
     """``(solver, rtol, atol, max_steps)`` of a level: ``STIFF_LEVEL_DEFAULTS`` for the ale and
-    full levels with cable damping ``cable_damping_s >= STIFF_DAMPING_S[level]`` [s], else
-    ``LEVEL_DEFAULTS``. ``None`` is the scenes' default damping (:data:`.passive.DEFAULT_CABLE_DAMPING_S`,
+    full levels with the hook as a sliding node (``hook_contact`` None, the default, or ``"node"``)
+    at any damping, and with the capsule contact (``"capsule"``) from cable damping
+    ``cable_damping_s >= STIFF_DAMPING_S[level]`` [s]; else ``LEVEL_DEFAULTS``. ``None`` is the scenes' default damping (:data:`.passive.DEFAULT_CABLE_DAMPING_S`,
     calibrated: the W-method at ale and full). A traced damping (a design, a vmapped batch) takes
     the W-method at ale and full too: it runs at any beta, where an explicit solver would stall
     at its stability limit on stiffly damped cables."""
     if fidelity not in STIFF_LEVEL_DEFAULTS:
         return LEVEL_DEFAULTS[fidelity]
+    if hook_contact_at(hook_contact, "ale") != "capsule":
+        return STIFF_LEVEL_DEFAULTS[fidelity]
     if isinstance(cable_damping_s, jax.core.Tracer):
         return STIFF_LEVEL_DEFAULTS[fidelity]
     beta = np.asarray(DEFAULT_CABLE_DAMPING_S if cable_damping_s is None else cable_damping_s)
@@ -191,7 +205,9 @@ def run_landing(
         return _run_one_dof(capture, layout, buffer, t_end_s, criteria)
 
     scene = passive_landing_scene(fidelity, capture, layout, buffer, t_end_s=t_end_s, **scene_kwargs)
-    d_solver, d_rtol, d_atol, d_steps = level_solver_settings(fidelity, scene_kwargs.get("cable_damping_s"))
+    d_solver, d_rtol, d_atol, d_steps = level_solver_settings(
+        fidelity, scene_kwargs.get("cable_damping_s"), scene_kwargs.get("hook_contact")
+    )
     pcoeff, icoeff = LEVEL_STEP_CONTROL[fidelity]
     result = simulate(
         scene,

@@ -673,9 +673,10 @@ does not show. The ale and full levels run it on the W-method (:func:`.landing.l
 
 LIGHT_CABLE_DAMPING_S = 1e-5
 """A lightly damped cable, beta [s] (the scenes' default before the calibration): the damping at which
-explicit solvers run the ale and full levels at their cheapest (Bosh3, ``LEVEL_DEFAULTS``). The
-cables' mode rings (a_max 7.6 g on the full level's design case), so it suits solver benchmarks and
-tests of the numerics, not criteria."""
+explicit solvers run the ale and full levels at their cheapest (Bosh3, ``LEVEL_DEFAULTS``), the
+level's default there with the capsule contact; with the hook as a sliding node the W-method is the
+faster there too (:data:`.landing.STIFF_DAMPING_S`). The cables' mode rings (a_max 7.6 g on the full
+level's design case), so it suits solver benchmarks and tests of the numerics, not criteria."""
 
 LEVEL_CABLE_MESH = {"ale": (80, 16), "full": (80, 16)}
 """Each level's ALE cable mesh unless given: (elements per arresting span, of them fine elements over

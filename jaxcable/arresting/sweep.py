@@ -373,9 +373,10 @@ def passive_case_fn(
       of its 100 Hz 3 dB frequency).
     """
     check_choice("fidelity", fidelity, SWEEP_FIDELITIES)
-    # the level's settings for this damping: rosw from STIFF_DAMPING_S on (Bosh3 would run at its
-    # stability limit there, ~2 million steps per case at the calibrated damping)
-    d_solver, d_rtol, d_atol, d_steps = level_solver_settings(fidelity, float(cable_damping_s))
+    # the level's settings for this damping and hook model: rosw with the node at any damping, with
+    # the capsule from STIFF_DAMPING_S on (Bosh3 would run at its stability limit there, ~2 million
+    # steps per case at the calibrated damping)
+    d_solver, d_rtol, d_atol, d_steps = level_solver_settings(fidelity, float(cable_damping_s), hook_contact)
     return PassiveCaseFunction(
         buffer=BufferDevice() if buffer is None else buffer,
         layout=ArrestingLayout() if layout is None else layout,

@@ -549,17 +549,22 @@ def run_two_phase(
     progress: bool = False,
     passive_air: bool = True,
     cable_damping_s: float = DEFAULT_CABLE_DAMPING_S,
+    hook_contact: str | None = None,
     **scene_kwargs,
 ) -> TwoPhaseRun:
     """Run one two-phase landing (default: the deviated case of section IV.A in scenario I).
 
     Phase 1 is compiled once per scenario structure; phase 2 is :func:`.landing.run_landing` at
-    ``fidelity`` from the captured state and the frame's centre at capture."""
+    ``fidelity`` from the captured state and the frame's centre at capture. ``hook_contact``: how a
+    hook holds its cable in phase 2 at the ale and full levels (None: the level's default, the hook
+    as a sliding node; ``"capsule"``: the capsule contact), as the sweeps' ``hook_contact``;
+    ``scene_kwargs`` go to phase 1's :func:`tracking_scene`."""
     enable_x64()
     check_choice("fidelity", fidelity, ("rigid", "ale", "full"))
     check_positive("passive_t_end_s", passive_t_end_s)
     check_t_end("passive_t_end_s", passive_t_end_s)
     check_cable_damping("cable_damping_s", cable_damping_s)
+    check_hook_contact(hook_contact, fidelity)
     if buffer is not None and not isinstance(buffer, BufferDevice):
         raise TypeError(f"buffer must be a BufferDevice or None, got {buffer!r}")
     if not isinstance(criteria, LandingCriteria):
@@ -568,7 +573,8 @@ def run_two_phase(
     track, out = _tracking_jit(scene)
     land = run_landing(
         fidelity, buffer=buffer, t_end_s=passive_t_end_s, criteria=criteria, progress=progress,
-        cable_damping_s=cable_damping_s, **_passive_kwargs(scene, out, passive_air),
+        cable_damping_s=cable_damping_s, **({} if hook_contact is None else {"hook_contact": hook_contact}),
+        **_passive_kwargs(scene, out, passive_air),
     )  # fmt: skip
     res = _to_python(out)
     res.update({k: v for k, v in land.outputs.items() if k != "energy_budget_J"})
@@ -677,11 +683,11 @@ class TwoPhaseCaseFunction(AbstractLandingCaseFunction):
 
     def passive_solver_settings(self):
         """``{fidelity: (solver, rtol, atol, max_steps)}`` of the passive phase, chosen from the static
-        ``cable_damping_s`` (inside the sweep's trace the scene's damping is a tracer, which
+        ``cable_damping_s`` and ``hook_contact`` (inside the sweep's trace the scene's damping is a tracer, which
         :func:`.landing.level_solver_settings` would read as the explicit default: Bosh3 at its
         stability limit on stiffly damped cables). The sweep vmaps this phase, so the W-method
         relinearises at every step (:func:`.landing.batched_solver`)."""
-        solver, rtol, atol, steps = level_solver_settings(self.fidelity, self.cable_damping_s)
+        solver, rtol, atol, steps = level_solver_settings(self.fidelity, self.cable_damping_s, self.hook_contact)
         if self.passive_rtol is not None:
             rtol = atol = self.passive_rtol
         return {self.fidelity: (batched_solver(solver), rtol, atol, steps)}

@@ -287,10 +287,16 @@ def test_level_solver_settings_follow_the_measured_crossover():
     assert level_solver_settings("rigid") == LEVEL_DEFAULTS["rigid"]
     traced = jax.jit(lambda b: jnp.asarray(level_solver_settings("ale", b)[0] == "rosw"))(1e-5)
     assert bool(traced)
-    assert level_solver_settings("ale", 1e-5) == LEVEL_DEFAULTS["ale"]
-    assert level_solver_settings("full", STIFF_DAMPING_S["full"]) == STIFF_LEVEL_DEFAULTS["full"]
-    assert level_solver_settings("full", STIFF_DAMPING_S["ale"]) == LEVEL_DEFAULTS["full"]
-    assert level_solver_settings("ale", 1e-2)[0] == "rosw"
+    # the hook as a sliding node (the default): the W-method at every damping, also undamped
+    for level in ("ale", "full"):
+        for beta in (0.0, 1e-5, 1e-2):
+            assert level_solver_settings(level, beta) == STIFF_LEVEL_DEFAULTS[level]
+            assert level_solver_settings(level, beta, "node") == STIFF_LEVEL_DEFAULTS[level]
+    # the capsule contact: explicit below its measured crossover, the W-method from it on
+    assert level_solver_settings("ale", 1e-5, "capsule") == LEVEL_DEFAULTS["ale"]
+    assert level_solver_settings("full", STIFF_DAMPING_S["full"], "capsule") == STIFF_LEVEL_DEFAULTS["full"]
+    assert level_solver_settings("full", STIFF_DAMPING_S["ale"], "capsule") == LEVEL_DEFAULTS["full"]
+    assert level_solver_settings("ale", 1e-2, "capsule")[0] == "rosw"
     assert level_solver_settings("rigid", 1e-2) == LEVEL_DEFAULTS["rigid"]  # no cable mass: no stiff nodes
     for name in ("ale", "full", "ale_stiff"):
         assert registry.bench_case(name).level in ("ale", "full")

@@ -20,6 +20,7 @@ from jaxcable.arresting.layout import CaptureState
 from jaxcable.arresting.two_phase import (
     SCENARIO_SETTINGS,
     deviated_case,
+    run_two_phase,
     tracking_scene,
     two_phase_outputs,
 )
@@ -121,6 +122,11 @@ def test_bad_input_names_the_field():
         tracking_scene(height_m=-5.0)
     with pytest.raises(ValueError, match="fidelity"):
         two_phase_outputs(tracking_scene(), "1dof")
+    # the passive phase's hook model is checked before the tracking phase runs
+    with pytest.raises(ValueError, match="hook_contact must be 'capsule' or 'node', got 'ring'"):
+        run_two_phase(fidelity="ale", hook_contact="ring")
+    with pytest.raises(ValueError, match="hook_contact='node' needs fidelity 'ale' or 'full'"):
+        run_two_phase(fidelity="rigid", hook_contact="node")
 
 
 GAIN_PER_S = 2.0  # a_p of the derivative checks
