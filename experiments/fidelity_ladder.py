@@ -21,6 +21,7 @@ Usage (about 25 min on 2 cores):
 
     python experiments/fidelity_ladder.py                 # experiments/results/fidelity_ladder.{json,md}
     python experiments/fidelity_ladder.py --cases design --levels 1dof rigid --out /tmp/ladder
+    python experiments/fidelity_ladder.py --levels ale full full_1body --tag _rocket   # whose is the ale-full gap
 """
 
 from __future__ import annotations
@@ -36,6 +37,10 @@ import jaxcable
 
 STEM = "fidelity_ladder"
 CASES = {"design": ("1dof", "rigid", "ale", "full"), "iva": ("rigid", "ale", "full")}
+EXTRA_LEVELS = ("full_1body",)
+"""Run on request (``--levels``): ``full_1body``, the full level with one rocket body (a rigid rocket
+with the hinged, sprung hooks), which tells the flexible rocket's share of the ale-full difference
+from the sprung hooks'."""
 CRITERIA = ("z_max_m", "a_max_g", "sigma_max_mpa")
 KEYS = CRITERIA + ("stopped", "criteria_met", "energy_budget_error", "num_steps", "solver_status")
 
@@ -45,7 +50,16 @@ def _call(case, level, t_end):
     from jaxcable.arresting.landing import run_landing
     from jaxcable.arresting.two_phase import run_two_phase
 
-    if case == "design":
+    if level == "full_1body":
+        kwargs = {}
+        if case == "iva":  # run_two_phase's passive phase, from the same captured state
+            from jaxcable.arresting import two_phase
+
+            scene = two_phase.tracking_scene(scenario="I", seed=0)
+            _, captured = two_phase._tracking_jit(scene)
+            kwargs = two_phase._passive_kwargs(scene, captured, True)
+        out = run_landing("full", t_end_s=t_end, n_rocket_bodies=1, **kwargs).outputs
+    elif case == "design":
         out = run_landing(level, t_end_s=t_end).outputs
     else:  # the passive phase's outputs (its steps, its energy budget)
         out = run_two_phase(fidelity=level, passive_t_end_s=t_end, seed=0).outputs
@@ -141,16 +155,19 @@ def write_md(data, path):
 def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--cases", nargs="+", choices=list(CASES), default=list(CASES))
-    p.add_argument("--levels", nargs="+", choices=list(CASES["design"]), default=None, help="default: every level of each case")
+    p.add_argument("--levels", nargs="+", choices=list(CASES["design"]) + list(EXTRA_LEVELS), default=None,
+                   help="default: every level of each case; full_1body (on request): the full level with a rigid rocket")
+    p.add_argument("--tag", default="", help="suffix of the results' file names")
     p.add_argument("--t-end", type=float, default=1.2, help="time simulated after capture [s] (default 1.2)")
     p.add_argument("--out", default=None, help="output folder (default experiments/results)")
     args = p.parse_args()
     jaxcable.enable_x64()
     out_dir = _report.output_dir(args.out)
     data = _report.start(rows=[])
+    stem = STEM + args.tag
     for case in args.cases:
-        for level in CASES[case]:
-            if args.levels and level not in args.levels:
+        for level in CASES[case] + EXTRA_LEVELS:
+            if (args.levels and level not in args.levels) or (not args.levels and level in EXTRA_LEVELS):
                 continue
             row = measure(case, level, args.t_end)
             data["rows"].append(row)
@@ -160,8 +177,8 @@ def main():
                 f"a {row['a_max_g']:.4f} g, sigma {row['sigma_max_mpa']:.2f} MPa, steps {row['num_steps']}"
             )
             print(f"{case} {level}: {brief}", flush=True)
-            _report.save(data, out_dir, STEM)
-    _report.finish(data, out_dir, STEM, write_md)
+            _report.save(data, out_dir, stem)
+    _report.finish(data, out_dir, stem, write_md)
 
 
 if __name__ == "__main__":
