@@ -50,19 +50,12 @@ def _call(case, level, t_end):
     from jaxcable.arresting.landing import run_landing
     from jaxcable.arresting.two_phase import run_two_phase
 
-    if level == "full_1body":
-        kwargs = {}
-        if case == "iva":  # run_two_phase's passive phase, from the same captured state
-            from jaxcable.arresting import two_phase
-
-            scene = two_phase.tracking_scene(scenario="I", seed=0)
-            _, captured = two_phase._tracking_jit(scene)
-            kwargs = two_phase._passive_kwargs(scene, captured, True)
-        out = run_landing("full", t_end_s=t_end, n_rocket_bodies=1, **kwargs).outputs
-    elif case == "design":
-        out = run_landing(level, t_end_s=t_end).outputs
+    # the full level with one rocket body: the full level's scene with n_rocket_bodies=1
+    fidelity, scene = ("full", {"n_rocket_bodies": 1}) if level == "full_1body" else (level, {})
+    if case == "design":
+        out = run_landing(fidelity, t_end_s=t_end, **scene).outputs
     else:  # the passive phase's outputs (its steps, its energy budget)
-        out = run_two_phase(fidelity=level, passive_t_end_s=t_end, seed=0).outputs
+        out = run_two_phase(fidelity=fidelity, passive_t_end_s=t_end, seed=0, passive_kwargs=scene).outputs
     return {k: clean(out[k]) for k in KEYS}
 
 

@@ -22,27 +22,22 @@ from bench_land import clean
 
 from jaxcable.arresting import two_phase
 from jaxcable.arresting.landing import run_landing
-from jaxcable.arresting.layout import CaptureState
-from jaxcable.arresting.sweep import case_key
+from jaxcable.arresting.sweep import qmc_case_fn
 from jaxcable.arresting.uncertainty import UNCERTAIN_PARAMETERS, halton_samples
 from jaxcable.core.config import enable_x64
 
 STEM = "section4_case_mesh"
 KEYS = ("z_max_m", "a_max_g", "sigma_max_mpa", "stopped", "criteria_met", "energy_budget_error", "num_steps")
-CAPTURE = UNCERTAIN_PARAMETERS[:10]
-"""The terminal state's parameters (the first ten of Table 2); the other five set the tracking."""
 
 
 def captured_kwargs(scenario: str, case: int, n: int = 100, seed: int = 0) -> dict:
     """``run_landing`` keyword arguments of the passive phase of ``case`` of the scenario's sweep of
-    ``n`` cases (seed ``seed``): its tracking phase run as ``run_two_phase`` runs it."""
+    ``n`` cases (seed ``seed``): the sweep's own tracking scene of the case
+    (``TwoPhaseCaseFunction.scene``), run as ``run_two_phase`` runs it."""
     samples = halton_samples(n, scenario, "full", seed)
-    p = {k: samples[k][case] for k in UNCERTAIN_PARAMETERS}
-    scene = two_phase.tracking_scene(
-        CaptureState(**{k: float(p[k]) for k in CAPTURE}), scenario=scenario, motor_delay_s=p["motor_delay_s"],
-        noise_rms_m=p["noise_rms_m"], wind_speed_m_s=p["wind_speed_m_s"], wind_angle_deg=p["wind_angle_deg"],
-        gust_intensity=p["gust_intensity"], seed=case_key(seed, p),
-    )  # fmt: skip
+    scene = qmc_case_fn(scenario, phase="full", fidelity="full", seed=seed).scene(
+        {k: samples[k][case] for k in UNCERTAIN_PARAMETERS}
+    )
     _, out = two_phase._tracking_jit(scene)
     return two_phase._passive_kwargs(scene, out, True)
 

@@ -549,22 +549,23 @@ def run_two_phase(
     progress: bool = False,
     passive_air: bool = True,
     cable_damping_s: float = DEFAULT_CABLE_DAMPING_S,
-    hook_contact: str | None = None,
+    passive_kwargs: dict | None = None,
     **scene_kwargs,
 ) -> TwoPhaseRun:
     """Run one two-phase landing (default: the deviated case of section IV.A in scenario I).
 
     Phase 1 is compiled once per scenario structure; phase 2 is :func:`.landing.run_landing` at
-    ``fidelity`` from the captured state and the frame's centre at capture. ``hook_contact``: how a
-    hook holds its cable in phase 2 at the ale and full levels (None: the level's default, the hook
-    as a sliding node; ``"capsule"``: the capsule contact), as the sweeps' ``hook_contact``;
-    ``scene_kwargs`` go to phase 1's :func:`tracking_scene`."""
+    ``fidelity`` from the captured state and the frame's centre at capture. ``passive_kwargs``: further
+    keyword arguments of phase 2's scene (:func:`.passive.passive_landing_scene`, as in
+    :func:`two_phase_outputs`), e.g. ``hook_contact``, ``n_span_elements``, ``n_fine`` or
+    ``n_rocket_bodies`` at the ale and full levels; ``scene_kwargs`` go to phase 1's
+    :func:`tracking_scene`."""
     enable_x64()
     check_choice("fidelity", fidelity, ("rigid", "ale", "full"))
     check_positive("passive_t_end_s", passive_t_end_s)
     check_t_end("passive_t_end_s", passive_t_end_s)
     check_cable_damping("cable_damping_s", cable_damping_s)
-    check_hook_contact(hook_contact, fidelity)
+    check_hook_contact((passive_kwargs or {}).get("hook_contact"), fidelity)
     if buffer is not None and not isinstance(buffer, BufferDevice):
         raise TypeError(f"buffer must be a BufferDevice or None, got {buffer!r}")
     if not isinstance(criteria, LandingCriteria):
@@ -573,8 +574,7 @@ def run_two_phase(
     track, out = _tracking_jit(scene)
     land = run_landing(
         fidelity, buffer=buffer, t_end_s=passive_t_end_s, criteria=criteria, progress=progress,
-        cable_damping_s=cable_damping_s, **({} if hook_contact is None else {"hook_contact": hook_contact}),
-        **_passive_kwargs(scene, out, passive_air),
+        cable_damping_s=cable_damping_s, **_passive_kwargs(scene, out, passive_air), **(passive_kwargs or {}),
     )  # fmt: skip
     res = _to_python(out)
     res.update({k: v for k, v in land.outputs.items() if k != "energy_budget_J"})

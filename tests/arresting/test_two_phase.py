@@ -124,9 +124,9 @@ def test_bad_input_names_the_field():
         two_phase_outputs(tracking_scene(), "1dof")
     # the passive phase's hook model is checked before the tracking phase runs
     with pytest.raises(ValueError, match="hook_contact must be 'capsule' or 'node', got 'ring'"):
-        run_two_phase(fidelity="ale", hook_contact="ring")
+        run_two_phase(fidelity="ale", passive_kwargs={"hook_contact": "ring"})
     with pytest.raises(ValueError, match="hook_contact='node' needs fidelity 'ale' or 'full'"):
-        run_two_phase(fidelity="rigid", hook_contact="node")
+        run_two_phase(fidelity="rigid", passive_kwargs={"hook_contact": "node"})
 
 
 GAIN_PER_S = 2.0  # a_p of the derivative checks
