@@ -82,8 +82,36 @@ def test_bad_values_found_after_parsing_exit_2_naming_the_flag(capsys):
     assert capsys.readouterr().err == "jaxcable land: error: --phase full needs --fidelity rigid, ale or full\n"
     assert main(["land", "--fidelity", "rigid", "--hook-contact", "node"]) == 2
     assert capsys.readouterr().err.startswith("jaxcable land: error: --hook-contact node needs --fidelity ale or full")
-    assert main(["land", "--phase", "full", "--fidelity", "ale", "--hook-contact", "node"]) == 2
-    assert capsys.readouterr().err == "jaxcable land: error: --hook-contact applies to --phase passive only\n"
+    assert main(["land", "--fidelity", "ale", "--rocket-bodies", "1"]) == 2
+    assert capsys.readouterr().err.startswith("jaxcable land: error: --rocket-bodies 1 needs --fidelity full")
+    assert main(["land", "--phase", "full", "--fidelity", "rigid", "--span-elements", "40"]) == 2
+    assert capsys.readouterr().err.startswith("jaxcable land: error: --span-elements 40 needs --fidelity ale or full")
+
+
+@pytest.mark.parametrize("phase", ["passive", "full"])
+def test_land_passes_the_passive_scene_options(phase, monkeypatch):
+    """``jaxcable land`` hands the cable mesh, the hook model and the rocket's bodies to the passive
+    scene in both phases (only the flags given; the level's defaults otherwise)."""
+    import jaxcable.cli.land as land_cli
+
+    seen = []
+
+    def fake(*args, **kwargs):
+        seen.append(kwargs.get("passive_kwargs", kwargs))
+        raise RuntimeError("stop here")
+
+    monkeypatch.setattr(land_cli, "run_landing", fake)
+    monkeypatch.setattr(land_cli, "run_two_phase", fake)
+    flags = ["land", "--phase", phase, "--fidelity", "full"]
+    for extra, want in (
+        ([], {}),
+        (["--span-elements", "40", "--fine-elements", "8", "--hook-contact", "capsule", "--rocket-bodies", "1"],
+         dict(n_span_elements=40, n_fine=8, hook_contact="capsule", n_rocket_bodies=1)),
+    ):
+        with pytest.raises(RuntimeError, match="stop here"):
+            land_cli.run(build_parser().parse_args(flags + extra))
+        got = {k: seen[-1].get(k) for k in ("n_span_elements", "n_fine", "hook_contact", "n_rocket_bodies") if k in seen[-1]}
+        assert got == want
 
 
 def test_no_cache_flag_before_or_after_the_command():

@@ -95,6 +95,7 @@ def _rejects(build, names):
 PASSIVE = ["land", "--fidelity", "rigid"]
 ONE_DOF = ["land", "--fidelity", "1dof"]
 ALE = ["land", "--fidelity", "ale"]
+FULL = ["land", "--fidelity", "full"]
 FULL_PHASE = ["land", "--phase", "full", "--fidelity", "rigid"]
 THROW = ["throw"]
 
@@ -120,6 +121,8 @@ CLI_FLAGS = {
     # fine elements: 1 .. the ale level's default span elements - 2 (a coarse element on each side)
     "--fine-elements": (st.one_of(outside(1, LEVEL_CABLE_MESH["ale"][0] - 2, integer=True), st.sampled_from(["1.5", "x"])),
                         ["fine-elements", "n_fine"], ALE),
+    "--rocket-bodies": (st.one_of(outside(1, 100, integer=True), st.sampled_from(["1.5", "x"])),
+                        ["rocket-bodies", "n_rocket_bodies"], FULL),
     "--t-end": (outside(0.0, 60.0, low_open=True), ["t-end", "t_end"], PASSIVE),
     "--rtol": (outside(0.0, 0.1, low_open=True), ["rtol"], PASSIVE),
     "--fidelity": (st.sampled_from(["2dof", "", "RIGID", "nan"]), ["--fidelity"], ["land"]),

@@ -111,6 +111,8 @@ __all__ = [
     "DEFAULT_SPAN_ELEMENTS",
     "FIDELITY_LEVELS",
     "LEVEL_CABLE_MESH",
+    "DEFAULT_ROCKET_BODIES",
+    "check_rocket_bodies",
     "LIGHT_CABLE_DAMPING_S",
     "G_CRITERIA",
     "LandingCriteria",
@@ -692,6 +694,11 @@ LEVEL_CABLE_MESH = {"ale": (80, 16), "full": (80, 16)}
   on both sides in the W-method's ``J`` (``docs/stiff_integrator.md``); at 32 (16 fine) the design
   case's a_max reads 11% high."""
 
+DEFAULT_ROCKET_BODIES = 5
+"""Rigid bodies of the full level's flexible rocket (joined by beams); 1 is a rigid rocket with the
+sprung hinged hooks, within 0.5% of 5 bodies in every criterion on the design case and section
+IV.A's (``experiments/results/fidelity_ladder_rocket.md``)."""
+
 DEFAULT_SPAN_ELEMENTS, DEFAULT_FINE_ELEMENTS = LEVEL_CABLE_MESH["full"]
 """The full level's mesh (:data:`LEVEL_CABLE_MESH`): ALE elements per arresting span, and of them
 equal fine elements next to each hook (0.375 m over +-3 m)."""
@@ -741,18 +748,22 @@ LEGACY_ALE_MODEL = ("capsule", 32, 16)
 identity (:func:`ale_model_identity`), so that they still resume with these settings given."""
 
 
-def ale_model_identity(fidelity: str, hook_contact: str | None, n_span_elements: int | None, n_fine: int | None) -> dict:
+def ale_model_identity(
+    fidelity: str, hook_contact: str | None, n_span_elements: int | None, n_fine: int | None, n_rocket_bodies: int | None = None
+) -> dict:
     """The part of a sweep's identity (``describe()``) that names the ALE cables' hook model and mesh
     (a None: the level's default, :func:`cable_mesh_at`): ``{}`` at the rigid level and for
-    :data:`LEGACY_ALE_MODEL`, else ``hook_contact``, ``n_span_elements`` and ``n_fine``. A CSV
-    resumes only rows computed with the same model."""
+    :data:`LEGACY_ALE_MODEL`, else ``hook_contact``, ``n_span_elements`` and ``n_fine``; and
+    ``n_rocket_bodies`` at the full level where it is not the default 5. A CSV resumes only rows
+    computed with the same model."""
     if fidelity == "rigid":
         return {}
     span, fine = cable_mesh_at(fidelity, n_span_elements, n_fine)
     model = (hook_contact_at(hook_contact, "ale"), int(span), int(fine))  # the sweeps' ale/full scenes: ALE cables
+    bodies = {} if fidelity != "full" or n_rocket_bodies in (None, DEFAULT_ROCKET_BODIES) else {"n_rocket_bodies": int(n_rocket_bodies)}
     if model == LEGACY_ALE_MODEL:
-        return {}
-    return dict(zip(("hook_contact", "n_span_elements", "n_fine"), model))
+        return bodies
+    return {**dict(zip(("hook_contact", "n_span_elements", "n_fine"), model)), **bodies}
 
 
 def check_cable_mesh(n_span_elements: int, n_fine: int):
@@ -767,13 +778,27 @@ def check_cable_mesh(n_span_elements: int, n_fine: int):
         )
 
 
-def ale_model_kwargs(fidelity: str, hook_contact: str | None, n_span_elements: int | None, n_fine: int | None) -> dict:
+def ale_model_kwargs(
+    fidelity: str, hook_contact: str | None, n_span_elements: int | None, n_fine: int | None, n_rocket_bodies: int | None = None
+) -> dict:
     """The keyword arguments of :func:`passive_landing_scene` that set the ALE cables' hook model and
-    mesh (none at the rigid level, whose massless cables have neither; a None: the level's default)."""
+    mesh (none at the rigid level, whose massless cables have neither; a None: the level's default),
+    and at the full level the flexible rocket's bodies (``n_rocket_bodies``, None: 5)."""
     if fidelity == "rigid":
         return {}
     span, fine = cable_mesh_at(fidelity, n_span_elements, n_fine)
-    return {"hook_contact": hook_contact, "n_span_elements": int(span), "n_fine": int(fine)}
+    bodies = {} if fidelity != "full" or n_rocket_bodies is None else {"n_rocket_bodies": int(n_rocket_bodies)}
+    return {"hook_contact": hook_contact, "n_span_elements": int(span), "n_fine": int(fine), **bodies}
+
+
+def check_rocket_bodies(n_rocket_bodies: int | None, fidelity: str):
+    """ValueError unless ``n_rocket_bodies`` is None (5 at the full level) or an integer in [1, 100]
+    at the full level (the other levels' rocket is one rigid body): the case functions check this."""
+    if n_rocket_bodies is None:
+        return
+    check_int("n_rocket_bodies", n_rocket_bodies, 1, 100)
+    if fidelity != "full":
+        raise ValueError(f"n_rocket_bodies={n_rocket_bodies} needs fidelity 'full' (the {fidelity} level's rocket is one rigid body)")
 
 
 def check_hook_contact(hook_contact: str | None, fidelity: str):
@@ -798,7 +823,7 @@ def passive_landing_scene(
     n_span_elements: int | None = None,
     n_fine: int | None = None,
     fine_half_width_m: float = DEFAULT_FINE_HALF_WIDTH_M,
-    n_rocket_bodies: int = 5,
+    n_rocket_bodies: int = DEFAULT_ROCKET_BODIES,
     t_end_s: float = 2.0,
     cable_damping_s: float = DEFAULT_CABLE_DAMPING_S,
     frame_centre_xy=None,

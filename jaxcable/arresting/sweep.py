@@ -60,6 +60,7 @@ from jaxcable.arresting.passive import (
     cable_mesh_at,
     check_cable_mesh,
     check_hook_contact,
+    check_rocket_bodies,
     landing_outputs,
     passive_landing_scene,
 )
@@ -216,11 +217,15 @@ class PassiveCaseFunction(AbstractLandingCaseFunction):
     """ALE elements per arresting span (``ale``/``full``)."""
     n_fine: int | None = eqx.field(static=True, default=None)
     """Of those, fine elements next to each hook (``ale``/``full``)."""
+    n_rocket_bodies: int | None = eqx.field(static=True, default=None)
+    """Rigid bodies of the flexible rocket in a ``full`` passive phase (None: 5; 1: a rigid rocket
+    with the sprung hooks, :data:`~jaxcable.arresting.passive.DEFAULT_ROCKET_BODIES`)."""
 
     def __check_init__(self):
         check_choice("fidelity", self.fidelity, SWEEP_FIDELITIES)
         check_hook_contact(self.hook_contact, self.fidelity)
         check_cable_mesh(*cable_mesh_at(self.fidelity, self.n_span_elements, self.n_fine))
+        check_rocket_bodies(self.n_rocket_bodies, self.fidelity)
         check_positive("cable_damping_s", self.cable_damping_s, allow_zero=True)
         check_positive("t_end_s", self.t_end_s)
         check_positive("rtol", self.rtol)
@@ -247,7 +252,7 @@ class PassiveCaseFunction(AbstractLandingCaseFunction):
         return passive_landing_scene(
             self.fidelity, capture, self.layout, self.buffer, t_end_s=self.t_end_s,
             cable_damping_s=self.cable_damping_s, **air,
-            **ale_model_kwargs(self.fidelity, self.hook_contact, self.n_span_elements, self.n_fine),
+            **ale_model_kwargs(self.fidelity, self.hook_contact, self.n_span_elements, self.n_fine, self.n_rocket_bodies),
         )  # fmt: skip
 
     def _simulate(self, scene):
@@ -310,7 +315,7 @@ class PassiveCaseFunction(AbstractLandingCaseFunction):
             layout={k: np.asarray(getattr(self.layout, k)).tolist() for k in self.layout.__dataclass_fields__},
             # only when changed, so that sweeps written before the field existed still resume
             **({} if self.cable_damping_s == DEFAULT_CABLE_DAMPING_S else dict(cable_damping_s=self.cable_damping_s)),
-            **ale_model_identity(self.fidelity, self.hook_contact, self.n_span_elements, self.n_fine),
+            **ale_model_identity(self.fidelity, self.hook_contact, self.n_span_elements, self.n_fine, self.n_rocket_bodies),
         )
 
 
@@ -350,6 +355,7 @@ def passive_case_fn(
     hook_contact: str | None = None,
     n_span_elements: int | None = None,
     n_fine: int | None = None,
+    n_rocket_bodies: int | None = None,
 ) -> PassiveCaseFunction:
     """The passive-phase case function with Table 1 defaults and the level's solver settings
     (:func:`jaxcable.arresting.landing.level_solver_settings` of the level and ``cable_damping_s``
@@ -395,6 +401,7 @@ def passive_case_fn(
         hook_contact=hook_contact,
         n_span_elements=None if n_span_elements is None else int(n_span_elements),
         n_fine=None if n_fine is None else int(n_fine),
+        n_rocket_bodies=None if n_rocket_bodies is None else int(n_rocket_bodies),
     )
 
 

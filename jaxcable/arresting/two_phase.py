@@ -105,6 +105,7 @@ from jaxcable.arresting.passive import (
     cable_mesh_at,
     check_cable_mesh,
     check_hook_contact,
+    check_rocket_bodies,
     check_t_end,
     landing_outputs,
     passive_landing_scene,
@@ -565,7 +566,11 @@ def run_two_phase(
     check_positive("passive_t_end_s", passive_t_end_s)
     check_t_end("passive_t_end_s", passive_t_end_s)
     check_cable_damping("cable_damping_s", cable_damping_s)
-    check_hook_contact((passive_kwargs or {}).get("hook_contact"), fidelity)
+    passive_options = passive_kwargs or {}
+    check_hook_contact(passive_options.get("hook_contact"), fidelity)
+    if fidelity != "rigid" and ("n_span_elements" in passive_options or "n_fine" in passive_options):
+        check_cable_mesh(*cable_mesh_at(fidelity, passive_options.get("n_span_elements"), passive_options.get("n_fine")))
+    check_rocket_bodies(passive_options.get("n_rocket_bodies"), fidelity)
     if buffer is not None and not isinstance(buffer, BufferDevice):
         raise TypeError(f"buffer must be a BufferDevice or None, got {buffer!r}")
     if not isinstance(criteria, LandingCriteria):
@@ -615,6 +620,9 @@ class TwoPhaseCaseFunction(AbstractLandingCaseFunction):
     """ALE elements per arresting span in an ``ale``/``full`` passive phase."""
     n_fine: int | None = eqx.field(static=True, default=None)
     """Of those, fine elements next to each hook."""
+    n_rocket_bodies: int | None = eqx.field(static=True, default=None)
+    """Rigid bodies of the flexible rocket in a ``full`` passive phase (None: 5; 1: a rigid rocket
+    with the sprung hooks, :data:`~jaxcable.arresting.passive.DEFAULT_ROCKET_BODIES`)."""
     passive_rtol: float | None = eqx.field(static=True, default=None)
     """Relative = absolute tolerance of an ``ale``/``full`` passive phase (``jaxcable sweep --rtol``);
     None: the level's default (:func:`.landing.level_solver_settings`). A screening sweep at 1e-4
@@ -633,6 +641,7 @@ class TwoPhaseCaseFunction(AbstractLandingCaseFunction):
         check_choice("fidelity", self.fidelity, ("rigid", "ale", "full"))
         check_hook_contact(self.hook_contact, self.fidelity)
         check_cable_mesh(*cable_mesh_at(self.fidelity, self.n_span_elements, self.n_fine))
+        check_rocket_bodies(self.n_rocket_bodies, self.fidelity)
 
     @property
     def host_build(self) -> bool:
@@ -668,7 +677,7 @@ class TwoPhaseCaseFunction(AbstractLandingCaseFunction):
         track, out1 = _tracking_jit(scene)
         passive = passive_landing_scene(
             self.fidelity, buffer=self.buffer, t_end_s=self.t_end_s, cable_damping_s=self.cable_damping_s,
-            **ale_model_kwargs(self.fidelity, self.hook_contact, self.n_span_elements, self.n_fine),
+            **ale_model_kwargs(self.fidelity, self.hook_contact, self.n_span_elements, self.n_fine, self.n_rocket_bodies),
             **_passive_kwargs(scene, out1),
         )  # fmt: skip
         return out1, _tracking_histories(track), passive
@@ -753,12 +762,12 @@ class TwoPhaseCaseFunction(AbstractLandingCaseFunction):
                     tracking=tracking,
                     **({} if self.cable_damping_s == DEFAULT_CABLE_DAMPING_S else dict(cable_damping_s=self.cable_damping_s)),
                     **({} if self.passive_rtol is None else {"passive_rtol": self.passive_rtol}),
-                    **ale_model_identity(self.fidelity, self.hook_contact, self.n_span_elements, self.n_fine))  # fmt: skip
+                    **ale_model_identity(self.fidelity, self.hook_contact, self.n_span_elements, self.n_fine, self.n_rocket_bodies))  # fmt: skip
 
 
 def two_phase_case_fn(fidelity="rigid", *, scenario="I", seed=0, buffer=None, layout=None, gain_per_s=None,
                       t_end_s=2.0, solver=None, rtol=None, max_steps=None, cable_damping_s=DEFAULT_CABLE_DAMPING_S,
-                      hook_contact=None, n_span_elements=None, n_fine=None,
+                      hook_contact=None, n_span_elements=None, n_fine=None, n_rocket_bodies=None,
                       **_ignored):  # fmt: skip
     """The two-phase case function with the scenario's controller gain and Table 1's buffer; registered
     as ``"arresting.full"`` (``phase="full"`` of :func:`jaxcable.arresting.sweep.case_fn_for`)."""
@@ -776,6 +785,7 @@ def two_phase_case_fn(fidelity="rigid", *, scenario="I", seed=0, buffer=None, la
         cable_damping_s=float(cable_damping_s), hook_contact=hook_contact,
         n_span_elements=None if n_span_elements is None else int(n_span_elements),
         n_fine=None if n_fine is None else int(n_fine),
+        n_rocket_bodies=None if n_rocket_bodies is None else int(n_rocket_bodies),
         passive_rtol=None if rtol is None else float(rtol),
     )  # fmt: skip
 

@@ -67,10 +67,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("--brake-force", type=float, default=3.13e5, help="F_f, one brake [N] (Table 1: 3.13e5)")
     p.add_argument("--brake-profile", default=None, help="factors phi_0,...,phi_K-1 of the brake force along the counterweight rise, F_f(w) = F_f phi(w), at K equally spaced knots over [0, --brake-profile-travel] (e.g. a design of `jaxcable design --vars m_w,profile:8`); default: constant brake")
     p.add_argument("--brake-profile-travel", type=float, default=6.0, help="counterweight rise of the profile's last knot [m] (default 6)")
-    p.add_argument("--cable-damping", type=cable_damping(), default=DEFAULT_CABLE_DAMPING_S, help=f"cables' stiffness-proportional damping beta [s] (levels rigid, ale, full; default {DEFAULT_CABLE_DAMPING_S:g} = 'calibrated', fitted to the paper's section III.F, docs/arresting_validation.md; the paper prints none, a_max depends on it: 1e-5 leaves the cables' mode ringing; ale/full: from 5e-4 s (ale) or 1e-3 s (full) on, the W-method rosw runs by default, its steps free of the explicit stability limit)")
-    p.add_argument("--span-elements", type=int, default=None, help="ALE elements per arresting span (levels ale, full; default: the level's, 64 at full, 80 at ale: with the hook as a node the criteria of the design case and the deviated case are within 0.9%% (full) and 1.2%% (ale) of finer meshes, docs/arresting_validation.md)")
-    p.add_argument("--fine-elements", type=int, default=None, help="of those, equal fine elements over +-3 m next to the hook (levels ale, full; default: the level's, 32 = 0.19 m at full, 16 = 0.375 m at ale)")
-    p.add_argument("--hook-contact", choices=["capsule", "node"], default=None, help="how a hook holds its cable (levels ale, full; --phase passive): node (default), the hook as a sliding node of its cable, or capsule, the Hertz/Coulomb contact of the hook's capsules with every span element (pushes the cable along itself where it kinks over the hook: the deviated case's sigma_max does not converge with the mesh; with --span-elements 32 --fine-elements 16 1.5x (ale) and 1.4x (full) faster on the design case; docs/arresting_validation.md)")
+    p.add_argument("--cable-damping", type=cable_damping(), default=DEFAULT_CABLE_DAMPING_S, help=f"cables' stiffness-proportional damping beta [s] (levels rigid, ale, full; default {DEFAULT_CABLE_DAMPING_S:g} = 'calibrated', fitted to the paper's section III.F, docs/arresting_validation.md; the paper prints none, a_max depends on it: 1e-5 leaves the cables' mode ringing; ale/full run the W-method rosw at any damping, its steps free of the explicit stability limit)")
+    p.add_argument("--span-elements", type=int, default=None, help="ALE elements per arresting span (levels ale, full; default: the level's, 80 at both: with the hook as a node the criteria of the design case and the deviated case are within 0.2%% (full) and 1.2%% (ale) of twice as many elements, docs/arresting_validation.md)")
+    p.add_argument("--fine-elements", type=int, default=None, help="of those, equal fine elements over +-3 m next to the hook (levels ale, full; default: the level's, 16 = 0.375 m at both)")
+    p.add_argument("--hook-contact", choices=["capsule", "node"], default=None, help="how a hook holds its cable (levels ale, full): node (default), the hook as a sliding node of its cable, or capsule, the Hertz/Coulomb contact of the hook's capsules with every span element (pushes the cable along itself where it kinks over the hook: the deviated case's sigma_max does not converge with the mesh; docs/arresting_validation.md)")
+    p.add_argument("--rocket-bodies", type=int, default=None, metavar="N", help="rigid bodies of the flexible rocket (level full; default 5). 1: a rigid rocket with the sprung hinged hooks, a cheaper model: on the design case and the deviated case z_max within 0.03%%, a_max within 0.5%%, sigma_max within 0.2%% of 5 bodies in 0.71-0.86x the time (docs/arresting_validation.md)")
     p.add_argument("--t-end", type=positive("--t-end"), default=2.0, help="time simulated after capture [s] (default 2)")
     p.add_argument("--solver", choices=sorted(SOLVERS), default=None, help="diffrax solver (default per level)")
     p.add_argument("--rtol", type=positive("--rtol"), default=None, help="relative = absolute tolerance (default per level)")
@@ -123,6 +124,24 @@ def _verdict(met: bool, unmet: list[str]) -> str:
     return _YES[met] if met or not unmet else f"NO ({'; '.join(unmet)})"
 
 
+def _cable_options(args: argparse.Namespace) -> dict:
+    """The passive scene's cable mesh, hook model and rocket bodies from the flags (only those
+    given; ValueError naming the flag where the level has no such part)."""
+    options = {}
+    if args.fidelity in ("ale", "full"):
+        given = dict(n_span_elements=args.span_elements, n_fine=args.fine_elements, hook_contact=args.hook_contact)
+        options.update({k: v for k, v in given.items() if v is not None})
+    else:
+        for flag, value in (("--span-elements", args.span_elements), ("--fine-elements", args.fine_elements), ("--hook-contact", args.hook_contact)):
+            if value is not None and not (flag == "--hook-contact" and value == "capsule"):
+                raise ValueError(f"{flag} {value} needs --fidelity ale or full (the {args.fidelity} level has no cable nodes)")
+    if args.rocket_bodies is not None:
+        if args.fidelity != "full":
+            raise ValueError(f"--rocket-bodies {args.rocket_bodies} needs --fidelity full (the {args.fidelity} level's rocket is one rigid body)")
+        options["n_rocket_bodies"] = args.rocket_bodies
+    return options
+
+
 def _passive(args: argparse.Namespace) -> Report:
     capture = CaptureState(
         x_m=args.x, y_m=args.y, vx_m_s=args.vx, vy_m_s=args.vy, vz_m_s=args.vz,
@@ -130,10 +149,7 @@ def _passive(args: argparse.Namespace) -> Report:
         omega_x_deg_s=args.omega_x, omega_y_deg_s=args.omega_y, omega_z_deg_s=args.omega_z,
     )  # fmt: skip
     level_options = {} if args.fidelity == "1dof" else dict(cable_damping_s=args.cable_damping)
-    if args.fidelity in ("ale", "full"):
-        level_options.update(n_span_elements=args.span_elements, n_fine=args.fine_elements, hook_contact=args.hook_contact)
-    elif args.hook_contact == "node":
-        raise ValueError(f"--hook-contact {args.hook_contact} needs --fidelity ale or full (the {args.fidelity} level has no cable nodes)")
+    level_options.update(_cable_options(args))
     landing = run_landing(
         args.fidelity,
         capture,
@@ -167,10 +183,6 @@ def _passive(args: argparse.Namespace) -> Report:
 def _two_phase(args: argparse.Namespace) -> Report:
     if args.fidelity == "1dof":
         raise ValueError("--phase full needs --fidelity rigid, ale or full")
-    if (args.span_elements, args.fine_elements) != (None, None):
-        raise ValueError("--span-elements/--fine-elements apply to --phase passive only")
-    if args.hook_contact is not None:
-        raise ValueError("--hook-contact applies to --phase passive only")
     terminal = CaptureState(
         x_m=args.x, y_m=args.y, vx_m_s=args.vx, vy_m_s=args.vy,
         theta_x_deg=args.theta_x, theta_y_deg=args.theta_y, theta_z_deg=args.theta_z,
@@ -190,6 +202,7 @@ def _two_phase(args: argparse.Namespace) -> Report:
         gust_intensity=args.gust_intensity,
         seed=args.seed,
         cable_damping_s=args.cable_damping,
+        passive_kwargs=_cable_options(args),
     )
     out = report_two_phase(landing)
     if args.plot:

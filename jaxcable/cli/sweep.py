@@ -78,8 +78,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("--max-steps", type=positive_int("--max-steps"), default=None, help="solver step budget per case (default per level)")
     p.add_argument("--cable-damping", type=cable_damping(), default=DEFAULT_CABLE_DAMPING_S, help=f"cables' stiffness-proportional damping beta [s] (default {DEFAULT_CABLE_DAMPING_S:g} = 'calibrated', fitted to the paper's section III.F, docs/arresting_validation.md; the paper prints none, a_max depends on it: 1e-5 leaves the cables' mode ringing)")
     p.add_argument("--hook-contact", choices=["capsule", "node"], default=None, help="how a hook holds its cable (--fidelity ale, full): node (default), the hook as a sliding node of its cable, or capsule, the Hertz/Coulomb contact of the hook's capsules with every span element (docs/arresting_validation.md)")
-    p.add_argument("--span-elements", type=positive_int("--span-elements"), default=None, help="ALE elements per arresting span (--fidelity ale, full; default: the level's, 64 at full, 80 at ale)")
-    p.add_argument("--fine-elements", type=positive_int("--fine-elements"), default=None, help="of those, fine elements next to each hook (--fidelity ale, full; default: the level's, 32 at full, 16 at ale); --hook-contact capsule --span-elements 32 --fine-elements 16 resumes the sweeps recorded before the node became the default")
+    p.add_argument("--span-elements", type=positive_int("--span-elements"), default=None, help="ALE elements per arresting span (--fidelity ale, full; default: the level's, 80 at both)")
+    p.add_argument("--fine-elements", type=positive_int("--fine-elements"), default=None, help="of those, fine elements next to each hook (--fidelity ale, full; default: the level's, 16 at both); --hook-contact capsule --span-elements 32 --fine-elements 16 resumes the sweeps recorded before the node became the default")
+    p.add_argument("--rocket-bodies", type=positive_int("--rocket-bodies"), default=None, metavar="N", help="rigid bodies of the flexible rocket (--fidelity full; default 5). 1: a rigid rocket with the sprung hinged hooks, within 0.5%% of 5 bodies in every criterion on the design and deviated cases, in 0.71-0.86x the time (docs/arresting_validation.md)")
     p.add_argument(
         "--confirm",
         metavar="SCREENED_CSV",
@@ -149,6 +150,7 @@ def run(args: argparse.Namespace) -> Report:
     case_kwargs = dict(
         t_end_s=args.t_end, solver=args.solver, rtol=args.rtol, max_steps=args.max_steps, cable_damping_s=args.cable_damping,
         hook_contact=args.hook_contact, n_span_elements=args.span_elements, n_fine=args.fine_elements,
+        n_rocket_bodies=args.rocket_bodies,
     )
     sweep_kwargs = {
         "phase": args.phase,

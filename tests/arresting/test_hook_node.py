@@ -258,6 +258,27 @@ def test_sweeps_carry_the_hook_model_in_their_identity():
             factory("rigid", hook_contact="node")
         with pytest.raises(ValueError, match="hook_contact must be 'capsule' or 'node'"):
             factory("full", hook_contact="ring")
+        # the rocket's bodies: named only where not the default 5, and only at the full level
+        assert "n_rocket_bodies" not in full
+        assert factory("full", n_rocket_bodies=5).describe() == full
+        one = factory("full", n_rocket_bodies=1).describe()
+        assert one["n_rocket_bodies"] == 1 and {k: v for k, v in one.items() if k != "n_rocket_bodies"} == full
+        assert factory("full", hook_contact="capsule", n_span_elements=32, n_fine=16, n_rocket_bodies=1).describe()["n_rocket_bodies"] == 1
+        with pytest.raises(ValueError, match="n_rocket_bodies=1 needs fidelity 'full'"):
+            factory("ale", n_rocket_bodies=1)
+        with pytest.raises(ValueError, match="n_rocket_bodies must be an integer"):
+            factory("full", n_rocket_bodies=0)
+
+
+def test_case_functions_build_the_rocket_bodies_asked_for():
+    """A passive sweep's case at the full level builds its scene with the rocket's bodies of
+    ``n_rocket_bodies`` (the default 5 otherwise)."""
+    from jaxcable.arresting.sweep import passive_case_fn
+    from jaxcable.arresting.uncertainty import halton_samples
+
+    params = {k: float(v[0]) for k, v in halton_samples(1, "I").items()}
+    assert passive_case_fn("full").build(params).rocket.n_bodies == 5
+    assert passive_case_fn("full", n_rocket_bodies=1).build(params).rocket.n_bodies == 1
 
 
 def test_the_node_slot_is_the_hook_node_of_the_route():

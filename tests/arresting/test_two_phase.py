@@ -127,6 +127,13 @@ def test_bad_input_names_the_field():
         run_two_phase(fidelity="ale", passive_kwargs={"hook_contact": "ring"})
     with pytest.raises(ValueError, match="hook_contact='node' needs fidelity 'ale' or 'full'"):
         run_two_phase(fidelity="rigid", passive_kwargs={"hook_contact": "node"})
+    # and so are its mesh and the rocket's bodies
+    with pytest.raises(ValueError, match="n_span_elements must be >= n_fine"):
+        run_two_phase(fidelity="full", passive_kwargs={"n_span_elements": 20, "n_fine": 20})
+    with pytest.raises(ValueError, match="n_rocket_bodies=1 needs fidelity 'full'"):
+        run_two_phase(fidelity="ale", passive_kwargs={"n_rocket_bodies": 1})
+    with pytest.raises(ValueError, match="n_rocket_bodies must be an integer"):
+        run_two_phase(fidelity="full", passive_kwargs={"n_rocket_bodies": 0})
 
 
 GAIN_PER_S = 2.0  # a_p of the derivative checks
