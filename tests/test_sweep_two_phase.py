@@ -212,3 +212,7 @@ def test_screening_tolerance_reaches_the_passive_phase_only_where_it_applies():
         two_phase_case_fn("full", solver="tsit5")
     with pytest.raises(ValueError, match="passive_rtol"):
         two_phase_case_fn("ale", rtol=-1.0)
+    # a passive sweep's option is refused by name, not dropped
+    with pytest.raises(ValueError, match="two-phase sweeps take no n_save, wind"):
+        two_phase_case_fn("full", n_save=101, wind=False)
+    assert two_phase_case_fn("full", n_save=None).describe() == default.describe()

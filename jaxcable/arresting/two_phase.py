@@ -772,6 +772,9 @@ def two_phase_case_fn(fidelity="rigid", *, scenario="I", seed=0, buffer=None, la
     """The two-phase case function with the scenario's controller gain and Table 1's buffer; registered
     as ``"arresting.full"`` (``phase="full"`` of :func:`jaxcable.arresting.sweep.case_fn_for`)."""
     check_choice("scenario", scenario, SCENARIO_SETTINGS)
+    given = sorted(k for k, v in _ignored.items() if v is not None)
+    if given:  # a passive sweep's options (n_save, wind, atol, ...) that this case function has no use for
+        raise ValueError(f"two-phase sweeps take no {', '.join(given)} (options of passive sweeps only)")
     if solver is not None or max_steps is not None:
         raise ValueError(
             "two-phase sweeps use the levels' default solver and step budget (--solver/--max-steps: passive sweeps "
