@@ -21,6 +21,7 @@ the machine's load hits each alike. Writes ``bench_step_parts<tag>.json/.md``. U
     python experiments/bench_step_parts.py                 # full level, ~4 min on 2 cores
     python experiments/bench_step_parts.py --level ale --tag _ale
     python experiments/bench_step_parts.py --hook-contact node --mesh 64 32 --tag _node64
+    python experiments/bench_step_parts.py --hook-contact node --mesh 80 16 --batch 4 --steps 100 --tag _node80_batch4
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ T_START_S = 0.05
 """Time after capture [s] of the state the steps start from (the hooks have picked the cables up)."""
 
 
-def build(level, dt, steps, hook_contact="capsule", mesh=(32, 16)):
+def build(level, dt, steps, hook_contact="capsule", mesh=(32, 16), batch=1):
     import dataclasses
 
     import diffrax
@@ -69,16 +70,19 @@ def build(level, dt, steps, hook_contact="capsule", mesh=(32, 16)):
     if hook_contact == "capsule":  # the node has no contact pairs
         solvers[f"rosw, J every 2 steps, {every} pairs in J"] = RosenbrockW(linearise=every_pair.stiff_linearisation, jacobian_every=2)
 
+    # a batch: the same state vmapped, as a sweep's cases step in lock-step
+    y_start = y0 if batch == 1 else jax.tree_util.tree_map(lambda x: jax.numpy.stack([x] * batch), y0)
+
     def call(solver):
-        @jax.jit
-        def run(y):
+        def one(y):
             sol = diffrax.diffeqsolve(
                 term, solver, T_START_S, T_START_S + steps * dt, dt, y, saveat=diffrax.SaveAt(t1=True),
                 stepsize_controller=diffrax.ConstantStepSize(), max_steps=steps + 10, throw=False,
             )  # fmt: skip
             return sol.ys
 
-        return lambda: run(y0)
+        run = jax.jit(one if batch == 1 else jax.vmap(one))
+        return lambda: run(y_start)
 
     return {name: call(s) for name, s in solvers.items()}
 
@@ -93,7 +97,8 @@ def write_md(data, path):
             f"Design case, hook model {data.get('hook_contact', 'capsule')} on {data.get('mesh', [32, 16])[0]} span elements "
             f"({data.get('mesh', [32, 16])[1]} fine), from its state {T_START_S} s after capture, beta = 1e-5 s, {data['steps']} constant "
             f"steps of {data['dt_s']:g} s in one compiled `diffeqsolve` (no saves, no event), best of "
-            f"{data['repeats']} rounds:"
+            f"{data['repeats']} rounds"
+            + (f"; {data['batch']} copies of the state vmapped, times per case:" if data.get("batch", 1) > 1 else ":")
         ),
         "",
         "| variant | per step | against bosh3 | added by this row |",
@@ -118,16 +123,17 @@ def main():
     p.add_argument("--tag", default="")
     p.add_argument("--hook-contact", choices=("capsule", "node"), default="capsule", help="the hook model (default capsule: the records')")
     p.add_argument("--mesh", nargs=2, type=int, default=[32, 16], metavar=("SPAN", "FINE"), help="span elements and fine ones (default 32 16)")
+    p.add_argument("--batch", type=int, default=1, help="cases vmapped (the state repeated), as a sweep's batch; times per case (default 1)")
     p.add_argument("--out", default=None)
     args = p.parse_args()
 
     from jaxcable.core.config import enable_x64
 
     enable_x64()
-    data = _report.start(level=args.level, steps=args.steps, dt_s=args.dt, repeats=args.repeats, hook_contact=args.hook_contact, mesh=args.mesh)
-    calls = build(args.level, args.dt, args.steps, args.hook_contact, tuple(args.mesh))
+    data = _report.start(level=args.level, steps=args.steps, dt_s=args.dt, repeats=args.repeats, hook_contact=args.hook_contact, mesh=args.mesh, batch=args.batch)
+    calls = build(args.level, args.dt, args.steps, args.hook_contact, tuple(args.mesh), args.batch)
     _, first, best = _report.time_rounds(calls, args.repeats)
-    data["per_step_us"] = {k: 1e6 * best[k] / args.steps for k in calls}
+    data["per_step_us"] = {k: 1e6 * best[k] / args.steps / args.batch for k in calls}
     data["first_call_s"] = first
     for k, us in data["per_step_us"].items():
         print(f"{k:34s} {us:8.0f} us/step")

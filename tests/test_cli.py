@@ -106,7 +106,7 @@ def test_land_passes_the_passive_scene_options(phase, monkeypatch):
     for extra, want in (
         ([], {}),
         (["--span-elements", "40", "--fine-elements", "8", "--hook-contact", "capsule", "--rocket-bodies", "1"],
-         dict(n_span_elements=40, n_fine=8, hook_contact="capsule", n_rocket_bodies=1)),
+         {"n_span_elements": 40, "n_fine": 8, "hook_contact": "capsule", "n_rocket_bodies": 1}),
     ):
         with pytest.raises(RuntimeError, match="stop here"):
             land_cli.run(build_parser().parse_args(flags + extra))

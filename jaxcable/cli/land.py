@@ -129,7 +129,7 @@ def _cable_options(args: argparse.Namespace) -> dict:
     given; ValueError naming the flag where the level has no such part)."""
     options = {}
     if args.fidelity in ("ale", "full"):
-        given = dict(n_span_elements=args.span_elements, n_fine=args.fine_elements, hook_contact=args.hook_contact)
+        given = {"n_span_elements": args.span_elements, "n_fine": args.fine_elements, "hook_contact": args.hook_contact}
         options.update({k: v for k, v in given.items() if v is not None})
     else:
         for flag, value in (("--span-elements", args.span_elements), ("--fine-elements", args.fine_elements), ("--hook-contact", args.hook_contact)):

@@ -245,7 +245,9 @@ def test_bad_input_gets_clear_errors():
     from jaxcable.cli import main as cli_main
 
     assert cli_main(["land", "--fidelity", "ale", "--fine-elements", "0"]) == 2
-    assert cli_main(["land", "--phase", "full", "--fine-elements", "4"]) == 2
+    # the passive phase's mesh at a level without cable nodes, and an impossible mesh, before any solve
+    assert cli_main(["land", "--phase", "full", "--fidelity", "rigid", "--fine-elements", "4"]) == 2
+    assert cli_main(["land", "--phase", "full", "--fine-elements", "79"]) == 2
     with pytest.raises(ValueError, match="vertical central"):
         run_landing("1dof", capture=CaptureState(x_m=3.0))
 
