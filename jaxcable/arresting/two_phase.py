@@ -768,11 +768,11 @@ class TwoPhaseCaseFunction(AbstractLandingCaseFunction):
 def two_phase_case_fn(fidelity="rigid", *, scenario="I", seed=0, buffer=None, layout=None, gain_per_s=None,
                       t_end_s=2.0, solver=None, rtol=None, max_steps=None, cable_damping_s=DEFAULT_CABLE_DAMPING_S,
                       hook_contact=None, n_span_elements=None, n_fine=None, n_rocket_bodies=None,
-                      **_ignored):  # fmt: skip
+                      **passive_only):  # fmt: skip
     """The two-phase case function with the scenario's controller gain and Table 1's buffer; registered
     as ``"arresting.full"`` (``phase="full"`` of :func:`jaxcable.arresting.sweep.case_fn_for`)."""
     check_choice("scenario", scenario, SCENARIO_SETTINGS)
-    given = sorted(k for k, v in _ignored.items() if v is not None)
+    given = sorted(k for k, v in passive_only.items() if v is not None)
     if given:  # a passive sweep's options (n_save, wind, atol, ...) that this case function has no use for
         raise ValueError(f"two-phase sweeps take no {', '.join(given)} (options of passive sweeps only)")
     if solver is not None or max_steps is not None:
