@@ -928,6 +928,8 @@ def passive_landing_scene(
     check_positive("fine_half_width_m", fine_half_width_m)
     check_range("fine_half_width_m", fine_half_width_m, 0.0, 1000.0, high_inclusive=True, unit=" m")
     check_int("n_rocket_bodies", n_rocket_bodies, 1, 100)
+    if n_rocket_bodies != DEFAULT_ROCKET_BODIES:  # refused, not ignored, where the rocket is one rigid body
+        check_rocket_bodies(n_rocket_bodies, fidelity)
     check_positive("wind_time_offset_s", wind_time_offset_s, allow_zero=True)
     if frame_centre_xy is not None:
         check_vector("frame_centre_xy", frame_centre_xy, (2,))

@@ -579,7 +579,7 @@ def run_two_phase(
     track, out = _tracking_jit(scene)
     land = run_landing(
         fidelity, buffer=buffer, t_end_s=passive_t_end_s, criteria=criteria, progress=progress,
-        cable_damping_s=cable_damping_s, **_passive_kwargs(scene, out, passive_air), **(passive_kwargs or {}),
+        cable_damping_s=cable_damping_s, **_passive_kwargs(scene, out, passive_air), **passive_options,
     )  # fmt: skip
     res = _to_python(out)
     res.update({k: v for k, v in land.outputs.items() if k != "energy_budget_J"})

@@ -279,6 +279,9 @@ def test_case_functions_build_the_rocket_bodies_asked_for():
     params = {k: float(v[0]) for k, v in halton_samples(1, "I").items()}
     assert passive_case_fn("full").build(params).rocket.n_bodies == 5
     assert passive_case_fn("full", n_rocket_bodies=1).build(params).rocket.n_bodies == 1
+    # the scene itself refuses bodies where the rocket is one rigid body, rather than ignoring them
+    with pytest.raises(ValueError, match="n_rocket_bodies=1 needs fidelity 'full'"):
+        passive_landing_scene("ale", n_rocket_bodies=1)
 
 
 def test_the_node_slot_is_the_hook_node_of_the_route():
