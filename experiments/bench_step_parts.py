@@ -8,6 +8,9 @@ the difference between two variants is the cost of what one adds):
 
 * ``bosh3``: the explicit default (3 vector-field evaluations per step, first same as last);
 * ``rosw, J = 0``: the W-method's 4 evaluations per step and its loop, every solve ``x = b / beta``;
+* ``rosw, J every step, linearisation only``: the same, with the linearisation computed every step
+  and kept alive (a zero multiple of its sum enters ``beta``) but neither factored nor solved with;
+* ``rosw, J every step, linearisation and factorisation``: the same, factored every step as well;
 * ``rosw, no coupling``: the cables' blocks and hinges relinearised every step, factored, 4
   structured solves, the cable rows' columns on the rocket left out;
 * ``rosw``: the same with the hook coupling (what ``simulate(solver="rosw")`` runs), the
@@ -38,6 +41,7 @@ def build(level, dt, steps, hook_contact="capsule", mesh=(32, 16), batch=1):
     import dataclasses
 
     import diffrax
+    import equinox as eqx
     import jax
 
     from jaxcable.arresting.passive import passive_landing_scene
@@ -60,9 +64,30 @@ def build(level, dt, steps, hook_contact="capsule", mesh=(32, 16), batch=1):
     def no_coupling(t, y):
         return scene.stiff_linearisation(t, y, hook_coupling=False)
 
+    class Unused(eqx.Module):
+        """A linearisation whose work is done but not used: ``factor`` returns ``x = b / beta``
+        with a zero multiple of the sum of the linearisation (``factored``: of its factors) added
+        to ``beta``, so that XLA keeps the computation (an unused result would be removed)."""
+
+        lin: eqx.Module
+        factored: bool = eqx.field(static=True)
+
+        def factor(self, beta):
+            kept = self.lin.factor(beta) if self.factored else self.lin
+            total = sum(jax.numpy.sum(x) for x in jax.tree_util.tree_leaves(kept) if eqx.is_array(x))
+            return ExplicitLinearisation().factor(beta + 0.0 * total)
+
+    def linearisation_only(t, y):
+        return Unused(scene.stiff_linearisation(t, y), factored=False)
+
+    def factorisation_only(t, y):
+        return Unused(scene.stiff_linearisation(t, y), factored=True)
+
     solvers = {
         "bosh3": make_solver("bosh3"),
         "rosw, J = 0": RosenbrockW(linearise=lambda t, y: ExplicitLinearisation(), jacobian_every=1),
+        "rosw, J every step, linearisation only": RosenbrockW(linearise=linearisation_only, jacobian_every=1),
+        "rosw, J every step, linearisation and factorisation": RosenbrockW(linearise=factorisation_only, jacobian_every=1),
         "rosw, no coupling, J every step": RosenbrockW(linearise=no_coupling, jacobian_every=1),
         "rosw, J every step": RosenbrockW(linearise=scene.stiff_linearisation, jacobian_every=1),
         "rosw, J every 2 steps": RosenbrockW(linearise=scene.stiff_linearisation, jacobian_every=2),

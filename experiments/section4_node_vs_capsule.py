@@ -1,7 +1,8 @@
 """Section IV at the full level: two recorded models of the same 3 x 100 cases, case by case. By
 default the hook as a sliding node on 64 span elements (32 fine) against the capsule contact on 32
 (16 fine); ``--new node80 --old node64``: the default now (the node on 80 span elements, 16 fine)
-against the node on 64.
+against the node on 64; ``--new 1body_screen --old node80_screen``: the default with a rigid rocket
+(``--rocket-bodies 1``) against its 5 bodies, both screened.
 
 Reads, for each scenario whose CSVs exist, the rows both sweeps have run (a sweep is resumable and
 may be partial), e.g.::
@@ -19,6 +20,7 @@ Usage::
 
     python experiments/section4_node_vs_capsule.py
     python experiments/section4_node_vs_capsule.py --new node80 --old node64
+    python experiments/section4_node_vs_capsule.py --new 1body_screen --old node80_screen --scenarios I
 """
 
 from __future__ import annotations
@@ -43,10 +45,16 @@ NODE80 = "sweep_two_phase_full_node80_{}_n100.csv"
 NODE80_CONFIRMED = "sweep_two_phase_full_node80_{}_n100_confirm_merged.csv"
 NODE80_SCREEN = "sweep_two_phase_full_node80_{}_n100_screen.csv"
 """Before its confirmation: the screening sweep alone (the report names the CSV it read)."""
+ONE_BODY_SCREEN = "sweep_two_phase_full_1body_{}_n100_screen.csv"
+"""The default model with a rigid rocket (``--rocket-bodies 1``: one body, the hooks sprung on
+their hinges), screened like ``NODE80_SCREEN`` (``--rtol 1e-4 --t-end 1.2``); against that screen:
+``--new 1body_screen --old node80_screen``."""
 RECORDS = {
     "node80": {"csvs": (NODE80, NODE80_CONFIRMED, NODE80_SCREEN), "label": "node, 80 elements, 16 fine (the default)"},
     "node64": {"csvs": (NODE, NODE_CONFIRMED), "label": "node, 64 elements, 32 fine"},
     "capsule": {"csvs": (CAPSULE,), "label": "capsule, 32 elements, 16 fine"},
+    "node80_screen": {"csvs": (NODE80_SCREEN,), "label": "5 rocket bodies, screened"},
+    "1body_screen": {"csvs": (ONE_BODY_SCREEN,), "label": "1 rocket body, screened"},
 }
 """The recorded sweeps by model: the CSVs tried in turn (``first_csv``) and the label of the reports."""
 KEYS = ("z_max_m", "a_max_g", "sigma_max_mpa")

@@ -103,7 +103,11 @@ class CableLinearisation(eqx.Module):
         F = banded.factor(*A_rr)
         Y = jax.vmap(lambda col: banded.solve(F, col), in_axes=-1, out_axes=-1)(A_rz)  # A_rr^-1 A_rz
         S = A_zz - jnp.einsum("cnis,cnit->cst", A_zr, Y)
-        return _CableFactors(F, Y, A_zr, _small_inverse(S), self, beta)
+        hinge_inv = None
+        if self.hinge is not None:  # the hooks' hinges: beta^2 I - beta C_h - K_h, inverted once per step
+            K_h, C_h = self.hinge
+            hinge_inv = _small_inverse(((beta**2) * jnp.eye(K_h.shape[0], dtype=K_h.dtype) - beta * C_h - K_h)[None])[0]
+        return _CableFactors(F, Y, A_zr, _small_inverse(S), self, beta, hinge_inv)
 
 
 def _rz(A, x):
@@ -145,16 +149,17 @@ class _CableFactors(eqx.Module):
     S_inv: jax.Array
     lin: CableLinearisation
     beta: jax.Array
+    hinge_inv: jax.Array | None = None
+    """``(beta^2 I - beta C_h - K_h)^-1`` (nh, nh) of the hooks' hinge rows, None without hinges."""
 
     def solve(self, rhs):
         beta, B = self.beta, self.lin.blocks
         out = jax.tree_util.tree_map(lambda b: b / beta, rhs)
         if self.lin.hinge is not None:
             # the hooks' hinges: (beta^2 I - beta C_h - K_h) x_rate = beta b_rate + K_h b_angle
-            K_h, C_h = self.lin.hinge
+            K_h, _ = self.lin.hinge
             b_a, b_w = self.lin.hinge_rows(rhs)
-            A_h = (beta**2) * jnp.eye(K_h.shape[0], dtype=K_h.dtype) - beta * C_h - K_h
-            x_w = _zz(_small_inverse(A_h[None]), (beta * b_w + K_h @ b_a)[None])[0]
+            x_w = jnp.sum(self.hinge_inv * (beta * b_w + K_h @ b_a)[None, :], axis=-1)
             x_a = (b_a + x_w) / beta
             out = eqx.tree_at(self.lin.hinge_rows, out, (x_a, x_w))
             if self.lin.hinge_reaction is not None:
