@@ -106,7 +106,7 @@ class CableLinearisation(eqx.Module):
         hinge_inv = None
         if self.hinge is not None:  # the hooks' hinges: beta^2 I - beta C_h - K_h, inverted once per step
             K_h, C_h = self.hinge
-            hinge_inv = _small_inverse(((beta**2) * jnp.eye(K_h.shape[0], dtype=K_h.dtype) - beta * C_h - K_h)[None])[0]
+            hinge_inv = _small_inverse((beta**2) * jnp.eye(K_h.shape[0], dtype=K_h.dtype) - beta * C_h - K_h)
         return _CableFactors(F, Y, A_zr, _small_inverse(S), self, beta, hinge_inv)
 
 
