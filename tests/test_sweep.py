@@ -485,6 +485,79 @@ def test_host_built_cases_match_traced_ones(tmp_path):
         np.testing.assert_array_equal(built[name], traced[name], err_msg=name)
 
 
+class StreamedDecay(HostBuiltDecay):
+    """The host-built toy, its ``solve_one`` counted (each streamed case is solved alone) and its
+    ``build`` failing on ``k = 13`` (a case whose set-up raises)."""
+
+    def build(self, params):
+        if float(params["k"]) == 13.0:
+            raise ValueError("k = 13: no such case")
+        return super().build(params)
+
+    def solve_one(self, problem):
+        out = self.solve(problem)
+        return dict(out, alone=jnp.asarray(True))
+
+    def solve(self, problem):
+        return dict(DecayCase.__call__(self, {"k": problem.k, "c": problem.c}), alone=jnp.asarray(False))
+
+
+_STREAM_SCRIPT = textwrap.dedent(
+    """
+    import json, sys, threading
+    import jax
+    import jaxcable.studies.sharding as sharding
+    from jaxcable.studies.sweep import run_sweep
+    from test_sweep import StreamedDecay, decay_samples
+    seen, lock = [], threading.Lock()
+    solve_one = sharding._solve_one
+    def spy(case_fn, case):
+        with lock:
+            seen.append(sorted({d.id for x in jax.tree_util.tree_leaves(case) if hasattr(x, "devices") for d in x.devices()}))
+        return solve_one(case_fn, case)
+    sharding._solve_one = spy
+    run_sweep(StreamedDecay(), decay_samples(12), sys.argv[1], batch_size=4, progress=False)
+    print(json.dumps(seen))
+    """
+)
+
+
+def test_one_case_a_device_streams_the_cases(tmp_path):
+    """On 4 devices at one case a device the host-built cases are streamed: each is solved alone
+    (``solve_one``, not vmapped), each on one device, all four devices used, every case once; the
+    rows equal a chunked 1-device run's (same arithmetic, one case against a vmapped chunk)."""
+    out = tmp_path / "streamed.csv"
+    proc = subprocess.run([sys.executable, "-c", _STREAM_SCRIPT, str(out)], env=_env(**FOUR_DEVICES),
+                          capture_output=True, text=True, timeout=300, check=False)  # fmt: skip
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    seen = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert len(seen) == 12 and all(len(d) == 1 for d in seen)
+    assert {d[0] for d in seen} == {0, 1, 2, 3}
+    got = read_sweep_csv(out)
+    np.testing.assert_array_equal(got["case"], np.arange(12))
+    assert got["alone"].all()
+    chunked = run_sweep(StreamedDecay(), decay_samples(12), tmp_path / "chunked.csv", batch_size=3, progress=False)
+    assert not chunked["alone"].any()
+    _assert_same_toy_rows({k: v for k, v in got.items() if k != "alone"}, {k: v for k, v in chunked.items() if k != "alone"})
+
+
+def test_a_streamed_case_that_raises_stops_the_sweep_with_its_error(tmp_path):
+    """A case whose build raises stops a streamed sweep with that error; the rows written before it
+    stay, and the sweep resumes (here with the case fixed) to every case once."""
+    samples = decay_samples(12)
+    samples["k"] = np.where(np.arange(12) == 5, 13.0, samples["k"])
+    out = tmp_path / "raises.csv"
+    with pytest.raises(ValueError, match="k = 13"):
+        run_sweep(StreamedDecay(), samples, out, batch_size=1, progress=False)
+    written = read_sweep_csv(out)["case"]
+    assert 5 not in written and set(written) <= set(range(12)) and len(written) >= 5
+    fixed = dict(samples, k=decay_samples(12)["k"])
+    # the inputs of the written cases are unchanged, so the sweep resumes; case 5's input changed
+    # but it was never written
+    table = run_sweep(StreamedDecay(), fixed, out, batch_size=1, progress=False)
+    np.testing.assert_array_equal(table["case"], np.arange(12))
+
+
 def test_kill_and_resume(tmp_path):
     """A sweep killed (SIGKILL) after its first chunk and restarted with the same arguments on 4
     devices ends with exactly the rows of an uninterrupted single-device run, each case once."""

@@ -4,7 +4,7 @@ the histories behind the plots of Figs 15-20 against the rows and the descent's 
 
 Cost (2 cores): one ``jaxcable sweep --phase full --plot`` of 3 cases (two compilations: the rows
 and the histories) and three single landings through :func:`run_two_phase` (one compilation); an
-ale-level two-phase sweep of 2 cases over 0.02 s and its single landings (~40 s).
+ale-level two-phase sweep of 3 cases over 0.02 s (one streamed, two batched) and its single landings.
 """
 
 from __future__ import annotations
@@ -173,19 +173,24 @@ def test_histories_agree_with_rows_and_descend_at_h_over_tc(cli_run):
 @pytest.mark.slow
 def test_ale_level_rows_equal_single_two_phase_landings(tmp_path):
     """At the ale level each case is built on the host (tracking phase, then the cables meshed from
-    the captured state) and the passive phases run as one vmapped batch: the rows equal
-    :func:`run_two_phase` at the ale level case by case. 0.02 s after capture (the hooks' impact on
+    the captured state). At one case a device the sweep streams them (each solved alone, the
+    default on a CPU); at more, the passive phases of a chunk run as one vmapped batch. Both give
+    rows equal to :func:`run_two_phase` at the ale level case by case: here case 0 streamed, then
+    the sweep resumed with cases 1 and 2 as one batch. 0.02 s after capture (the hooks' impact on
     the cables: ~300 steps a case)."""
     t_end = 0.02
     # a lightly damped cable with the capsule contact (explicit Bosh3: the same steps in the batch and
     # alone): the W-method at the default damping took 183 s here against 65 s (2 cores), and its
     # vmapped rows are checked in tests/arresting/test_stiff.py
     light = {"cable_damping_s": LIGHT_CABLE_DAMPING_S, "hook_contact": "capsule"}
-    table = run_qmc_sweep(SCENARIO, 2, phase="full", fidelity="ale", out=tmp_path / "ale.csv", seed=SEED, batch_size=2,
-                          progress=False, t_end_s=t_end, **light)  # fmt: skip
+    chunks = []
+    for n, batch in ((1, 1), (3, 2)):
+        table = run_qmc_sweep(SCENARIO, n, phase="full", fidelity="ale", out=tmp_path / "ale.csv", seed=SEED,
+                              batch_size=batch, progress=False, t_end_s=t_end, on_chunk=chunks.append, **light)  # fmt: skip
+    assert [list(c) for c in chunks] == [[0], [1, 2]]  # one streamed case, then one chunk of two
     assert not table["failed"].any() and table["captured"].all()
-    samples = halton_samples(2, SCENARIO, "full", SEED)
-    for i in range(2):
+    samples = halton_samples(3, SCENARIO, "full", SEED)
+    for i in range(3):
         o = _single_landing(samples, i, "ale", t_end, cable_damping_s=light["cable_damping_s"],
                             passive_kwargs={"hook_contact": light["hook_contact"]})  # fmt: skip
         for name in ("capture_margin_m", "capture_time_s", "z_max_m", "a_max_g", "sigma_max_mpa"):

@@ -69,7 +69,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--batch-size",
         type=auto_or_positive_int("--batch-size"),
         default="auto",
-        help="cases per compiled call (default auto: 32 at the rigid level; at ale and full 1 per device on a CPU, 24 on a GPU)",
+        help="cases per compiled call (default auto: 32 at the rigid level; at ale and full 1 per device on a CPU, 24 on a GPU; "
+        "at ale and full, 1 per device streams the cases: each device solves its next case alone as it finishes one)",
     )
     p.add_argument("--t-end", type=positive("--t-end"), default=2.0, help="time simulated after capture [s] (default 2)")
     p.add_argument("--solver", choices=sorted(SOLVERS), default=None, help="diffrax solver (default per level)")

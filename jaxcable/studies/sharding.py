@@ -13,17 +13,20 @@ A *case function* here is any ``eqx.Module`` with ``__call__(params) -> dict`` o
 
 :func:`evaluate` runs one chunk, padded to a fixed size (one compilation per chunk shape), and
 returns NumPy arrays. The mesh is 1-D over the local devices with the case axis :data:`AXIS`.
+:func:`stream` runs host-built cases one at a time per device, with no chunks: each device's thread
+builds its next case while the others solve, and no device waits for another's slower case.
 """
 
 from __future__ import annotations
 
+import threading
 from concurrent.futures import ThreadPoolExecutor
 
 import equinox as eqx
 import jax
 import numpy as np
 
-__all__ = ["AXIS", "device_mesh", "evaluate", "on_mesh", "per_device", "round_up", "stack_cases"]
+__all__ = ["AXIS", "device_mesh", "evaluate", "on_mesh", "per_device", "round_up", "stack_cases", "stream"]
 
 AXIS = "cases"
 """Name of the mesh axis the cases are sharded along."""
@@ -123,3 +126,50 @@ def per_device(case_fn, batch, devices, method) -> dict:
     with ThreadPoolExecutor(len(devices)) as pool:
         outs = list(pool.map(run, range(len(devices))))
     return {name: np.concatenate([o[name] for o in outs]) for name in outs[0]}
+
+
+# One compiled single-case solve per (case function structure, device): see :func:`stream`.
+_solve_one = eqx.filter_jit(lambda case_fn, case: case_fn.solve_one(case))
+
+
+def stream(case_fn, params: dict, indices, devices, on_case) -> None:
+    """Run the host-built cases ``indices`` of ``params`` (``{name: (n,)}``) one at a time on each of
+    ``devices``, and call ``on_case(index, outputs)`` (``{name: np.ndarray (1,)}``) as each finishes,
+    in the order they finish, one call at a time (a lock serialises them).
+
+    Each device has a thread that takes the next case, builds it (``case_fn.build``, its compiled
+    parts on that device), and solves it alone (``case_fn.solve_one``: not ``vmap``-ped, so a solver
+    may use its single-case settings). Against chunks of one case a device (:func:`evaluate`) no
+    device waits for the other's slower case at a chunk's end, and a case's build on the host
+    overlaps the other devices' solves. The first exception a case raises stops every thread after
+    its current case and is raised here."""
+    lock = threading.Lock()
+    todo = [int(i) for i in indices][::-1]  # taken from the end: in index order
+    failures = []
+
+    def work(device):
+        with jax.default_device(device):
+            while True:
+                with lock:
+                    if failures or not todo:
+                        return
+                    i = todo.pop()
+                try:
+                    case = case_fn.build({name: v[i] for name, v in params.items()})
+                    case = jax.tree_util.tree_map(lambda x: jax.device_put(np.asarray(x), device) if eqx.is_array(x) else x, case)
+                    out = {name: np.asarray(v)[None] for name, v in _solve_one(case_fn, case).items()}
+                    with lock:
+                        on_case(i, out)
+                except BaseException as e:  # noqa: BLE001 (re-raised by the caller's thread)
+                    with lock:
+                        failures.append(e)
+                    return
+
+    threads = [threading.Thread(target=work, args=(d,), daemon=True) for d in devices]
+    for t in threads:
+        t.start()
+    for t in threads:
+        while t.is_alive():
+            t.join(0.5)  # a timed join keeps the main thread responsive to Ctrl-C
+    if failures:
+        raise failures[0]

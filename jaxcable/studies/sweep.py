@@ -39,7 +39,7 @@ from jaxcable.core.config import enable_x64
 from jaxcable.core.provenance import __version__
 from jaxcable.core.simulate import status_message
 from jaxcable.core.validation import check_positive
-from jaxcable.studies.sharding import device_mesh, evaluate, round_up
+from jaxcable.studies.sharding import device_mesh, evaluate, round_up, stream
 
 __all__ = [
     "AbstractCaseFunction",
@@ -96,6 +96,12 @@ class AbstractCaseFunction(eqx.Module):
 
     def __call__(self, params: dict) -> dict:
         raise NotImplementedError
+
+    def solve_one(self, case) -> dict:
+        """The outputs of one built case solved alone, not under ``vmap`` (a sweep of one case a
+        device streams its cases, :func:`jaxcable.studies.sharding.stream`). Default: ``solve``;
+        a case function overrides it where one case runs cheaper alone than as a batch's member."""
+        return self.solve(case)
 
     def histories(self, params: dict) -> dict:
         raise NotImplementedError(f"{type(self).__name__} keeps no time histories")
@@ -279,7 +285,13 @@ def run_sweep(
     different one raises ``ValueError``. ``batch_size`` (cases per compiled call, padded up to a
     multiple of the device count), ``devices`` and ``progress`` change results only through
     roundoff and may differ on resume.
-    ``on_chunk(case_indices)`` is called after each chunk is durable (logging, tests).
+
+    A host-built case function (``host_build``) at one case a device (``batch_size`` equal to the
+    device count) is streamed (:func:`jaxcable.studies.sharding.stream`): each device takes the next
+    case as it finishes one, solves it alone (``solve_one``), and its row is written then, so rows
+    come in the order the cases finish (:func:`read_sweep_csv` sorts them).
+    ``on_chunk(case_indices)`` is called after each chunk (a streamed case: each case) is durable
+    (logging, tests).
     """
 
     enable_x64()
@@ -308,9 +320,8 @@ def run_sweep(
     # one chunk shape per sweep (one compilation): the last chunk is padded up to it
     size = round_up(min(batch_size, max(len(todo), 1)), n_dev)
     bar = _progress_bar(len(indices), len(indices) - len(todo), progress)
-    for start in range(0, len(todo), size):
-        idx = todo[start : start + size]
-        outputs = evaluate(case_fn, {k: arrays[k][idx] for k in names}, mesh, size)
+    def write(idx, outputs):
+        nonlocal header
         if "status_code" not in outputs:
             raise ValueError("a case function must return 'status_code' (the solver's result code)")
         out_keys = _ordered(outputs, case_fn.column_order)
@@ -332,6 +343,14 @@ def run_sweep(
             bar.update(len(idx))
         if on_chunk is not None:
             on_chunk(idx)
+
+    if case_fn.host_build and size == n_dev and len(todo):
+        # one case a device: stream the cases (no chunks; builds overlap the other devices' solves)
+        stream(case_fn, arrays, todo, list(mesh.devices.flat), lambda i, out: write(np.array([i]), out))
+        todo = todo[:0]
+    for start in range(0, len(todo), size):
+        idx = todo[start : start + size]
+        write(idx, evaluate(case_fn, {k: arrays[k][idx] for k in names}, mesh, size))
     if bar is not None:
         bar.close()
     return read_sweep_csv(out_csv)
