@@ -496,6 +496,7 @@ def run_qmc_sweep(
     progress: bool = True,
     on_chunk=None,
     cases=None,
+    stream: bool = True,
     **case_kwargs,
 ) -> dict:
     """Section IV's sweep: ``n`` Halton cases of ``scenario`` for ``phase`` at ``fidelity``, this
@@ -506,7 +507,8 @@ def run_qmc_sweep(
     The sidecar identity holds scenario, phase, seed, process slice and the case function; ``n`` may
     grow on resume (the Halton prefix property keeps the earlier cases), not shrink.
 
-    ``batch_size``: cases per compiled call, or ``"auto"`` (:func:`default_batch_size`)."""
+    ``batch_size``: cases per compiled call, or ``"auto"`` (:func:`default_batch_size`); ``stream``
+    as :func:`jaxcable.studies.sweep.run_sweep`'s."""
     if batch_size == "auto":
         batch_size = default_batch_size(fidelity, devices)
     check_batch_size(batch_size, fidelity, devices)
@@ -540,6 +542,7 @@ def run_qmc_sweep(
         devices=devices,
         progress=progress,
         on_chunk=record_n,
+        stream=stream,
     )
     record_n()
     return result

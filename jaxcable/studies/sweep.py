@@ -39,7 +39,8 @@ from jaxcable.core.config import enable_x64
 from jaxcable.core.provenance import __version__
 from jaxcable.core.simulate import status_message
 from jaxcable.core.validation import check_positive
-from jaxcable.studies.sharding import device_mesh, evaluate, round_up, stream
+from jaxcable.studies.sharding import device_mesh, evaluate, round_up
+from jaxcable.studies.sharding import stream as stream_cases
 
 __all__ = [
     "AbstractCaseFunction",
@@ -275,6 +276,7 @@ def run_sweep(
     devices=None,
     progress: bool = True,
     on_chunk: Callable[[np.ndarray], None] | None = None,
+    stream: bool = True,
 ) -> dict:
     """Run ``case_fn`` on the cases ``indices`` (default all) of ``samples`` ({name: (n,)}), append
     one CSV row per case to ``out_csv`` as each chunk finishes, and return all the file's rows as
@@ -289,7 +291,9 @@ def run_sweep(
     A host-built case function (``host_build``) at one case a device (``batch_size`` equal to the
     device count) is streamed (:func:`jaxcable.studies.sharding.stream`): each device takes the next
     case as it finishes one, solves it alone (``solve_one``), and its row is written then, so rows
-    come in the order the cases finish (:func:`read_sweep_csv` sorts them).
+    come in the order the cases finish (:func:`read_sweep_csv` sorts them). ``stream=False`` runs
+    them in chunks like any other case function (``experiments/bench_sweep_stream.py`` compares
+    the two).
     ``on_chunk(case_indices)`` is called after each chunk (a streamed case: each case) is durable
     (logging, tests).
     """
@@ -344,9 +348,9 @@ def run_sweep(
         if on_chunk is not None:
             on_chunk(idx)
 
-    if case_fn.host_build and size == n_dev and len(todo):
+    if stream and case_fn.host_build and size == n_dev and len(todo):
         # one case a device: stream the cases (no chunks; builds overlap the other devices' solves)
-        stream(case_fn, arrays, todo, list(mesh.devices.flat), lambda i, out: write(np.array([i]), out))
+        stream_cases(case_fn, arrays, todo, list(mesh.devices.flat), lambda i, out: write(np.array([i]), out))
         todo = todo[:0]
     for start in range(0, len(todo), size):
         idx = todo[start : start + size]
