@@ -40,7 +40,7 @@ def main():
 
     from jaxcable.arresting.sweep import run_qmc_sweep
     from jaxcable.core.config import enable_x64
-    from jaxcable.studies.sweep import read_sweep_csv
+    from jaxcable.studies.sweep import read_sweep_csv, sidecar_path
 
     enable_x64()  # as the sweep does: the report's machine line states the precision
     report = _report.start(scenario=args.scenario)
@@ -60,7 +60,7 @@ def main():
         for name, stream in arms.items():
             out = tmp / f"round{r}_{stream}.csv"
             shutil.copy(seeds[name], out)
-            shutil.copy(str(seeds[name]) + ".json", str(out) + ".json")
+            shutil.copy(sidecar_path(seeds[name]), sidecar_path(out))
             t = time.perf_counter()
             run_qmc_sweep(args.scenario, args.n, out=out, stream=stream, **settings)
             times[name].append(time.perf_counter() - t)

@@ -40,6 +40,7 @@ from jaxcable.arresting.uncertainty import (
 from jaxcable.arresting.sweep import SAVE_SPACING_S, case_fn_for, run_qmc_sweep, summarize_sweep, summary_markdown
 from jaxcable.arresting.sweep_plots import plot_histories, plot_landing_plane
 from jaxcable.cli.sweep import sweep_main
+from jaxcable.studies import sharding
 from jaxcable.studies.sweep import AbstractCaseFunction, process_indices, read_sidecar, read_sweep_csv, run_sweep
 
 TESTS = Path(__file__).resolve().parent
@@ -486,20 +487,12 @@ def test_host_built_cases_match_traced_ones(tmp_path):
 
 
 class StreamedDecay(HostBuiltDecay):
-    """The host-built toy, its ``solve_one`` counted (each streamed case is solved alone) and its
-    ``build`` failing on ``k = 13`` (a case whose set-up raises)."""
+    """The host-built toy with its ``build`` failing on ``k = 13`` (a case whose set-up raises)."""
 
     def build(self, params):
         if float(params["k"]) == 13.0:
             raise ValueError("k = 13: no such case")
         return super().build(params)
-
-    def solve_one(self, problem):
-        out = self.solve(problem)
-        return dict(out, alone=jnp.asarray(True))
-
-    def solve(self, problem):
-        return dict(DecayCase.__call__(self, {"k": problem.k, "c": problem.c}), alone=jnp.asarray(False))
 
 
 _STREAM_SCRIPT = textwrap.dedent(
@@ -524,7 +517,7 @@ _STREAM_SCRIPT = textwrap.dedent(
 
 def test_one_case_a_device_streams_the_cases(tmp_path):
     """On 4 devices at one case a device the host-built cases are streamed: each is solved alone
-    (``solve_one``, not vmapped), each on one device, all four devices used, every case once; the
+    (the single-case solve, not vmapped), each on one device, all four devices used, every case once; the
     rows equal a 1-device run's in chunks of one case (``stream=False``; same arithmetic, one case
     alone against a vmapped chunk of one)."""
     out = tmp_path / "streamed.csv"
@@ -536,11 +529,14 @@ def test_one_case_a_device_streams_the_cases(tmp_path):
     assert {d[0] for d in seen} == {0, 1, 2, 3}
     got = read_sweep_csv(out)
     np.testing.assert_array_equal(got["case"], np.arange(12))
-    assert got["alone"].all()
-    # the same layout, one case a device, run in chunks (as before streaming; the benchmark's other arm)
-    chunked = run_sweep(StreamedDecay(), decay_samples(12), tmp_path / "chunked.csv", batch_size=1, progress=False, stream=False)
-    assert not chunked["alone"].any()
-    _assert_same_toy_rows({k: v for k, v in got.items() if k != "alone"}, {k: v for k, v in chunked.items() if k != "alone"})
+    # the same layout, one case a device, run in chunks (as before streaming; the benchmark's other
+    # arm): the single-case solve is never called
+    alone = []
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(sharding, "_solve_one", lambda *a: alone.append(a))
+        chunked = run_sweep(StreamedDecay(), decay_samples(12), tmp_path / "chunked.csv", batch_size=1, progress=False, stream=False)
+    assert not alone
+    _assert_same_toy_rows(got, chunked)
 
 
 def test_a_streamed_case_that_raises_stops_the_sweep_with_its_error(tmp_path):

@@ -696,7 +696,7 @@ class TwoPhaseCaseFunction(AbstractLandingCaseFunction):
         :func:`.landing.level_solver_settings` would read as the explicit default: Bosh3 at its
         stability limit on stiffly damped cables). The sweep vmaps this phase, so the W-method
         relinearises at every step (:func:`.landing.batched_solver`), and so does a streamed sweep's
-        case solved alone (``solve_one`` is ``solve``): there a lagged ``J`` (every 2 steps, a
+        case solved alone: there a lagged ``J`` (every 2 steps, a
         single landing's default) took 1.08-1.14x the steps at the same time per step (section
         IV.A's scenario I, 22 cases, rigid rocket, rtol 1e-4, 1.2 s; ``docs/sweeps.md``)."""
         solver, rtol, atol, steps = level_solver_settings(self.fidelity, self.cable_damping_s, self.hook_contact)

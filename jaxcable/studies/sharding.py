@@ -129,7 +129,7 @@ def per_device(case_fn, batch, devices, method) -> dict:
 
 
 # One compiled single-case solve per (case function structure, device): see :func:`stream`.
-_solve_one = eqx.filter_jit(lambda case_fn, case: case_fn.solve_one(case))
+_solve_one = eqx.filter_jit(lambda case_fn, case: case_fn.solve(case))
 
 
 def stream(case_fn, params: dict, indices, devices, on_case) -> None:
@@ -138,8 +138,7 @@ def stream(case_fn, params: dict, indices, devices, on_case) -> None:
     in the order they finish, one call at a time (a lock serialises them).
 
     Each device has a thread that takes the next case, builds it (``case_fn.build``, its compiled
-    parts on that device), and solves it alone (``case_fn.solve_one``: not ``vmap``-ped, so a solver
-    may use its single-case settings). Against chunks of one case a device (:func:`evaluate`) no
+    parts on that device), and solves it alone (``case_fn.solve``, not ``vmap``-ped). Against chunks of one case a device (:func:`evaluate`) no
     device waits for the other's slower case at a chunk's end, and a case's build on the host
     overlaps the other devices' solves. The first exception a case raises stops every thread after
     its current case and is raised here."""

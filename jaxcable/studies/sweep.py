@@ -98,12 +98,6 @@ class AbstractCaseFunction(eqx.Module):
     def __call__(self, params: dict) -> dict:
         raise NotImplementedError
 
-    def solve_one(self, case) -> dict:
-        """The outputs of one built case solved alone, not under ``vmap`` (a sweep of one case a
-        device streams its cases, :func:`jaxcable.studies.sharding.stream`). Default: ``solve``;
-        a case function overrides it where one case runs cheaper alone than as a batch's member."""
-        return self.solve(case)
-
     def histories(self, params: dict) -> dict:
         raise NotImplementedError(f"{type(self).__name__} keeps no time histories")
 
@@ -290,7 +284,7 @@ def run_sweep(
 
     A host-built case function (``host_build``) at one case a device (``batch_size`` equal to the
     device count) is streamed (:func:`jaxcable.studies.sharding.stream`): each device takes the next
-    case as it finishes one, solves it alone (``solve_one``), and its row is written then, so rows
+    case as it finishes one, solves it alone (``solve``, not vmapped), and its row is written then, so rows
     come in the order the cases finish (:func:`read_sweep_csv` sorts them). ``stream=False`` runs
     them in chunks like any other case function (``experiments/bench_sweep_stream.py`` compares
     the two).
@@ -324,6 +318,7 @@ def run_sweep(
     # one chunk shape per sweep (one compilation): the last chunk is padded up to it
     size = round_up(min(batch_size, max(len(todo), 1)), n_dev)
     bar = _progress_bar(len(indices), len(indices) - len(todo), progress)
+
     def write(idx, outputs):
         nonlocal header
         if "status_code" not in outputs:
@@ -348,13 +343,13 @@ def run_sweep(
         if on_chunk is not None:
             on_chunk(idx)
 
-    if stream and case_fn.host_build and size == n_dev and len(todo):
+    if stream and case_fn.host_build and size == n_dev:
         # one case a device: stream the cases (no chunks; builds overlap the other devices' solves)
         stream_cases(case_fn, arrays, todo, list(mesh.devices.flat), lambda i, out: write(np.array([i]), out))
-        todo = todo[:0]
-    for start in range(0, len(todo), size):
-        idx = todo[start : start + size]
-        write(idx, evaluate(case_fn, {k: arrays[k][idx] for k in names}, mesh, size))
+    else:
+        for start in range(0, len(todo), size):
+            idx = todo[start : start + size]
+            write(idx, evaluate(case_fn, {k: arrays[k][idx] for k in names}, mesh, size))
     if bar is not None:
         bar.close()
     return read_sweep_csv(out_csv)
