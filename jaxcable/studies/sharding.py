@@ -155,7 +155,7 @@ def stream(case_fn, params: dict, indices, devices, on_case) -> None:
                     i = todo.pop()
                 try:
                     case = case_fn.build({name: v[i] for name, v in params.items()})
-                    case = jax.tree_util.tree_map(lambda x: jax.device_put(np.asarray(x), device) if eqx.is_array(x) else x, case)
+                    case = jax.tree_util.tree_map(lambda x: jax.device_put(x, device) if eqx.is_array(x) else x, case)
                     out = {name: np.asarray(v)[None] for name, v in _solve_one(case_fn, case).items()}
                     with lock:
                         on_case(i, out)
