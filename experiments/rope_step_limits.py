@@ -29,12 +29,18 @@ kilonewtons (~500 rad/s) suggested an implicit method would take fewer. Two meas
     first call and the fastest of ``--repeats`` interleaved calls. If the completions alone set
     the steps, the cheapest step would win; if the accuracy between them does, the higher order.
 
+(f) The saved samples at 1 m segments with ``jaxcable throw``'s settings: the default save grid
+    (every 0.01 s, about 900 samples before the impact, each a probe with one evaluation of the
+    vector field on the largest window) against 10 samples: steps, error against Tsit5 at 1e-8,
+    first call and the fastest of ``--repeats`` interleaved calls: what the saved histories cost.
+
 Writes ``rope_step_limits.json/.md``. Usage (about 3 min on 2 cores):
 
     python experiments/rope_step_limits.py
     python experiments/rope_step_limits.py --quick     # 5 m segments, two tolerances, 10 m dense
     python experiments/rope_step_limits.py --parts d   # only (d); the others kept from the saved JSON
     python experiments/rope_step_limits.py --parts e   # only (e), about 5 min
+    python experiments/rope_step_limits.py --parts f   # only (f), about 2 min
 """
 
 from __future__ import annotations
@@ -151,6 +157,38 @@ def solvers(segment_m, settings, repeats):
     return rows, int(ref.num_steps)
 
 
+SAVES = {"every 0.01 s (default)": None, "10 samples": 10}
+
+
+def saves(segment_m, rtols, repeats):
+    """Part (f): Tsit5 with the PI controller and the default windows, the default save grid
+    against 10 saved samples over the flight; rows."""
+    scene = line_throwing_scene(angle_deg=30.0, segment_length_m=segment_m)
+    pcoeff, icoeff = CONTROLLERS["PI"]
+
+    def run(rtol, name, **kw):
+        kw = kw or {"pcoeff": pcoeff, "icoeff": icoeff}
+        n = SAVES[name]
+        save_ts = None if n is None else jax.numpy.linspace(0.0, 9.0, n)
+        r = jaxcable.simulate(scene, T1_S, solver="tsit5", rtol=rtol, atol=rtol, save_ts=save_ts, **kw)
+        jax.block_until_ready(r.t_final)
+        return r
+
+    # the maximum speed is read off the saved samples: each grid has its own reference
+    refs = {name: run(1e-8, name, pcoeff=0.0, icoeff=1.0) for name in SAVES}
+    settings = [(rtol, name) for rtol in rtols[:1] for name in SAVES]
+    results, first, walls = _interleaved(run, settings, repeats)
+    rows = []
+    for (rtol, name), r in results.items():
+        saved = int(jax.numpy.sum(jax.numpy.isfinite(r.ts)))
+        rows.append({"segment_m": segment_m, "rtol": rtol, "saves": name, "saved_samples": saved,
+                     "steps": int(r.num_steps), "rejected": int(r.num_rejected), "error": _error(r, refs[name]),
+                     "first_call_s": first[(rtol, name)], "run_s": min(walls[(rtol, name)]),
+                     "runs_s": walls[(rtol, name)],
+                     "run_ratio": min(walls[(rtol, name)]) / min(walls[settings[0]])})  # fmt: skip
+    return rows, int(refs[settings[0][1]].num_steps)
+
+
 def flight(segment_m, solver, rtol):
     """One 30 deg flight to impact, timed on the second (compiled) call; returns a row."""
     scene = line_throwing_scene(angle_deg=30.0, segment_length_m=segment_m)
@@ -177,7 +215,8 @@ def flight(segment_m, solver, rtol):
 
 PARTS = {"a": ("tolerance",), "b": ("dense",), "c": ("controllers", "controllers_reference_steps", "controllers_repeats"),
          "d": ("windows", "windows_reference_steps", "windows_repeats"),
-         "e": ("solvers", "solvers_reference_steps", "solvers_repeats")}  # fmt: skip
+         "e": ("solvers", "solvers_reference_steps", "solvers_repeats"),
+         "f": ("saves", "saves_reference_steps", "saves_repeats")}  # fmt: skip
 
 
 def _kept_list(kept):
@@ -271,6 +310,20 @@ def write_md(data, path):
                 f"| {r['segment_m']:g} m | {r['solver']} | {r['rtol']:.0e} | {r['steps']} | {r['rejected']} | "
                 f"{r['error']:.1e} | {r['first_call_s']:.1f} | {r['run_s']:.2f} | {r['run_ratio']:.2f} |"
             )
+    if data.get("saves"):
+        lines += ["", "## (f) The saved samples (windows, PI controller)", "",
+                  ("Error: as in (c), against Tsit5 at 1e-8 on the same save grid (the maximum speed is "
+                   f"read off the saved samples; {data['saves_reference_steps']} steps). Saved: samples before the impact, each a probe "
+                   "(one evaluation of the vector field, on the largest window while the rope fits in it). First "
+                   f"call: tracing, compiling and one run. Run: the fastest of {data['saves_repeats']} calls, the "
+                   "settings interleaved; ratio: to the first row."), "",
+                  "| segment | rtol = atol | saves | saved | steps | rejected | error | first call [s] | run [s] | ratio |",
+                  "|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|"]  # fmt: skip
+        for r in data["saves"]:
+            lines.append(
+                f"| {r['segment_m']:g} m | {r['rtol']:.0e} | {r['saves']} | {r['saved_samples']} | {r['steps']} | "
+                f"{r['rejected']} | {r['error']:.1e} | {r['first_call_s']:.1f} | {r['run_s']:.2f} | {r['run_ratio']:.2f} |"
+            )
     _report.write_lines(path, lines)
 
 
@@ -279,8 +332,8 @@ def main():
     p.add_argument("--segment", type=float, default=1.0, help="segment length of part (a) [m]")
     p.add_argument("--rtols", nargs="+", type=float, default=[1e-3, 1e-4, 1e-5, 1e-6])
     p.add_argument("--dense-segments", nargs="+", type=float, default=[10.0, 5.0])
-    p.add_argument("--controller-rtols", nargs="+", type=float, default=[1e-4, 1e-3], help="tolerances of parts (c), (d)")
-    p.add_argument("--repeats", type=int, default=5, help="timed calls per setting in parts (c), (d), (e) (default 5)")
+    p.add_argument("--controller-rtols", nargs="+", type=float, default=[1e-4, 1e-3], help="tolerances of parts (c), (d); the first also of (f)")
+    p.add_argument("--repeats", type=int, default=5, help="timed calls per setting in parts (c)-(f) (default 5)")
     p.add_argument("--solver-settings", nargs="+", default=list(SOLVER_SETTINGS), help="solver:rtol pairs of part (e); the first is the ratios' base")
     p.add_argument("--parts", nargs="+", default=list(PARTS), choices=list(PARTS),
                    help="parts to run (default all); the others are kept from the saved JSON")  # fmt: skip
@@ -291,12 +344,12 @@ def main():
     if args.quick:
         args.segment, args.rtols, args.dense_segments = 5.0, [1e-3, 1e-4], [10.0]
     out = _report.output_dir(args.out, args.quick)
-    data = _report.start(tolerance=[], dense=[], controllers=[], windows=[], solvers=[])
+    data = _report.start(tolerance=[], dense=[], controllers=[], windows=[], solvers=[], saves=[])
     saved = out / f"{STEM}.json"
     if set(args.parts) != set(PARTS) and saved.exists():
         _keep(data, json.loads(saved.read_text()), args.parts)
     timed = (("c", "controllers", controllers, args.controller_rtols), ("d", "windows", windows, args.controller_rtols),
-             ("e", "solvers", solvers, args.solver_settings))  # fmt: skip
+             ("e", "solvers", solvers, args.solver_settings), ("f", "saves", saves, args.controller_rtols))  # fmt: skip
     for part, key, measure, settings in timed:
         if part in args.parts:
             data[key], data[f"{key}_reference_steps"] = measure(args.segment, settings, args.repeats)

@@ -1,6 +1,6 @@
-"""The rope's windowed evaluation: the vector field computed on a prefix of the box's links equals the
-one over every link (values, vmap, forward and reverse derivatives), and a flight with it lands where
-one without it does."""
+"""The rope's windowed evaluation: the vector field (and the saved probe) computed on a prefix of the
+box's links equals the one over every link (values, vmap, forward and reverse derivatives), and a
+flight with it lands where one without it does."""
 
 import dataclasses
 
@@ -79,6 +79,20 @@ def test_windowed_field_equals_the_whole_box(deployed):
     for seed in range(2):
         y = _state(seed, deployed)
         assert _relative_difference(_field(WHOLE, y), _field(WINDOWED, y)) < 1e-12
+
+
+@eqx.filter_jit
+def _probe(scene, y):
+    return scene.probe(1.5, y)
+
+
+@pytest.mark.parametrize("deployed", DEPLOYED)
+def test_windowed_probe_equals_the_whole_box(deployed):
+    """The saved quantities (the acceleration with the completion blend, the rope's pull, the kinetic
+    energy) on the largest window, and beyond it on the whole box, equal the whole box's."""
+    for seed in range(2):
+        y = _state(seed, deployed)
+        assert _relative_difference(_probe(WHOLE, y), _probe(WINDOWED, y)) < 1e-12
 
 
 def test_windowed_field_under_vmap():
