@@ -34,6 +34,27 @@ def random_state(key, n, deployed, speed=30.0):
     )
 
 
+@pytest.mark.parametrize("n,deployed", [(5, 3.4), (16, 15.5), (40, 17.2), (750, 612.7)])
+def test_node_positions_and_velocities_are_the_link_sums(n, deployed):
+    """The nodes (summed over the links in blocks: ``rope._blocked_cumsum``) against eq 6 and its
+    rate summed link by link in NumPy: ``r_j = r_0 - sum_i l_i u_i``, ``v_j = v_0 - sum_i l_i omega_i
+    p_i``, the welded tail and the links in the box following the last free link."""
+    rope = make_rope(segment_length_m=1.0, rope_length_m=float(n))
+    y = random_state(jax.random.PRNGKey(n), n, deployed)
+    kin = kinematics(y, rope, 3.0, 0.3)
+    k = int(np.floor(deployed))
+    lengths = np.where(np.arange(1, n + 1) <= k, 1.0, np.where(np.arange(1, n + 1) == k + 1, deployed - k, 0.0))
+    theta, omega = np.array(y.theta), np.array(y.omega)
+    theta[k:], omega[k:] = theta[k - 1], omega[k - 1]
+    r, v = [np.array(y.r0)], [np.array(y.v0)]
+    for i in range(n):
+        u = np.array([np.sin(theta[i]), np.cos(theta[i])])
+        r.append(r[-1] - lengths[i] * u)
+        v.append(v[-1] - lengths[i] * omega[i] * np.array([u[1], -u[0]]))
+    np.testing.assert_allclose(kin.positions, np.array(r), rtol=0, atol=1e-12 * max(n, 10))
+    np.testing.assert_allclose(kin.velocities, np.array(v), rtol=0, atol=1e-11 * max(n, 10))
+
+
 @pytest.mark.parametrize(
     "deployed,hinged",
     [

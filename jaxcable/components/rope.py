@@ -261,11 +261,10 @@ def kinematics(state: ChainState, rope: SegmentRope, rocket_mass, theta_launch, 
     omega = jnp.where(link <= n_free, state.omega, omega_ref)
     u, p = unit_vectors(theta)
     # Node positions and material velocities (the collinear tail rotates with the last free link,
-    # i.e. rigidly), both from one cumulative sum over the links: one scan of 4 columns costs less
-    # than two of 2 on a CPU.
+    # i.e. rigidly), both from one cumulative sum over the links (4 columns, in blocks).
     base = jnp.concatenate([state.r0, state.v0])
     steps = jnp.concatenate([lengths[:, None] * u, (lengths * omega)[:, None] * p], axis=1)
-    nodes = jnp.concatenate([base[None], base - jnp.cumsum(steps, axis=0)], axis=0)
+    nodes = jnp.concatenate([base[None], base - _blocked_cumsum(steps)], axis=0)
     positions, velocities = nodes[:, :2], nodes[:, 2:]
     masses = jnp.concatenate([jnp.reshape(rocket_mass, (1,)), rho * lengths])
     tail_dir = unit_vectors(theta_ref)[0]
@@ -290,6 +289,22 @@ def kinematics(state: ChainState, rope: SegmentRope, rocket_mass, theta_launch, 
         tail_direction=tail_dir,
         payout_rate=rate,
     )
+
+
+def _blocked_cumsum(x, block=16):
+    """``jnp.cumsum(x, axis=0)`` of ``x`` (n, c), the rows summed in blocks of ``block`` by one small
+    triangular product and the blocks' totals by a cumulative sum of ``n / block`` rows.
+
+    XLA's CPU cumulative sum pads and reduces in windows; over the chain's nodes (4 columns: the
+    positions and the material velocities) this form took the 30 deg flight at 1 m segments from
+    0.48-0.50 s to 0.43-0.46 s (best of 7 calls in four pairs of interleaved processes; 2-core Intel
+    Xeon, JAX 0.10.2 CPU, float64); the sums agree to rounding (1e-14 m over 750 links)."""
+    n = x.shape[0]
+    m = -(-n // block) * block
+    blocks = jnp.pad(x, ((0, m - n), (0, 0))).reshape(m // block, block, -1)
+    within = jnp.einsum("ij,kjc->kic", jnp.tril(jnp.ones((block, block), x.dtype)), blocks)
+    offsets = jnp.cumsum(within[:, -1], axis=0) - within[:, -1]
+    return (within + offsets[:, None]).reshape(m, -1)[:n]
 
 
 def _outer(a, b):
