@@ -124,7 +124,8 @@ def _probe_terms(scene, t, state):
         deriv, kin = rope_vector_field(sub, rope, mass, theta_launch, force_fn, scene.release_fraction)
         return deriv.v0, force_fn(kin)[0], kinetic_energy(kin)
 
-    return on_window(state, scene.rope, window_sizes(scene.rope.capacity, scene.windows[-1:]), terms)
+    # the largest window and the whole box (window_sizes sorts them and ends with the box)
+    return on_window(state, scene.rope, window_sizes(scene.rope.capacity, scene.windows)[-2:], terms)
 
 
 def _as_tuple(value):
