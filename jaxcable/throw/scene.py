@@ -116,7 +116,10 @@ def _probe_terms(scene, t, state):
     diffrax places the saving function at several places of the program, each a copy of the
     branches to compile; with every window the first call took 14.6-14.9 s against 11.4-12.3 s,
     with the largest alone 11.9 s, and the run the same (0.46-0.47 s against 0.60-0.67 s on every
-    link; ``python experiments/rope_step_limits.py --parts f``)."""
+    link; interleaved processes, docs/throw.md "Cost of a flight"). What the saved samples cost
+    now: ``python experiments/rope_step_limits.py --parts f``. The forces on the rocket repeat
+    the vector field's own computation, which XLA merges (the compiled probe has the field's
+    count of ``tanh``)."""
     mass, theta_launch = scene.rocket.mass(t), launch_theta(scene.launch.angle_rad)
 
     def terms(sub, rope):
