@@ -96,7 +96,7 @@ from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.cable_sets import AleCables, HookPoints, MasslessCables, throat_weights
 from jaxcable.arresting.landing_rocket import flexible_landing_rocket, rigid_landing_rocket
 from jaxcable.arresting.layout import ArrestingLayout, CaptureState, check_hooks_inside_frame
-from jaxcable.arresting.stiff import CableLinearisation, ExplicitLinearisation, HookCoupling
+from jaxcable.arresting.stiff import CableLinearisation, ExplicitLinearisation, HookCoupling, chain_plan
 from jaxcable.components.contact import ContactLaw
 from jaxcable.components.multibody import point_kinematics
 from jaxcable.components.wind import AeroCoefficients, WindField, rocket_aero_loads
@@ -372,6 +372,7 @@ class PassiveLandingScene(AbstractScene):
             blocks, rows=_cable_rows, active=self.cables.subsystems.route.active_slots, hinge=hinge,
             hinge_rows=_hinge_rows if hinge is not None else None, coupling=coupling,
             hinge_reaction=reaction, speed_rows=_speed_rows if reaction is not None else None,
+            plan=chain_plan([np.shape(f)[-1] for f in self.cables.subsystems.route.fractions]),
         )  # fmt: skip
 
     def _hinge_jacobian(self, t, state, kin=None, picked=None):

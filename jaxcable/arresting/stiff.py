@@ -11,7 +11,8 @@ x_v) / beta`` leaves
     (beta^2 M - beta C - K) x_v = beta M b_v + K b_r,
 
 block-tridiagonal with 3x3 blocks, factored once per step and solved per stage in O(n)
-(:mod:`jaxcable.core.banded`). Every other component is ``x = b / beta``.
+(:mod:`jaxcable.core.banded`), its sweeps split at the spans' ends into chunks taken side by side
+(:func:`chain_plan`). Every other component is ``x = b / beta``.
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ from jaxcable.arresting.cable_sets import HookPoints
 from jaxcable.core import banded
 from jaxcable.core.rosenbrock import DenseLinearisation
 
-__all__ = ["CableLinearisation", "ExplicitLinearisation", "HookCoupling", "dense_reference"]
+__all__ = ["CableLinearisation", "ChainPlan", "ExplicitLinearisation", "HookCoupling", "chain_plan", "dense_reference"]
 
 
 def _mass_matvec(M, x):
@@ -53,6 +54,178 @@ class _ScaledIdentity(eqx.Module):
 
     def solve(self, rhs):
         return jax.tree_util.tree_map(lambda b: b / self.beta, rhs)
+
+
+CHAIN_CHUNK_NODES = None
+"""Default ``max_nodes`` of :func:`chain_plan` for the scenes' linearisation: ``None``, the spans
+as they are, packed into chunks that run side by side (no separators). On the default mesh that
+is 2 chunks of 40 nodes instead of one sweep over 80: the design case at the full level took
+0.92-0.94x the time over its first 0.3 s and 0.97x over the whole 1 s, in the same steps; cutting the spans further at separators (20 nodes,
+2 separators a cable; 10 nodes, 6) was slower, 0.98x and 1.43x, as the border's Schur complement
+grows (``docs/stiff_integrator.md``, "Shorter sweeps")."""
+
+
+class ChainPlan(eqx.Module):
+    """How the internal nodes of a cable (identical for the stacked cables) are split for the
+    block-tridiagonal sweeps: ``pieces`` (start, stop) runs of internal nodes that couple only
+    within themselves once the ``separators`` (internal node indices) are taken into the border;
+    the pieces are packed in order into ``chunks`` (tuples of piece indices), each at most
+    ``length`` nodes, padded to ``length`` with identity rows. Static: made at trace time."""
+
+    pieces: tuple = eqx.field(static=True)
+    separators: tuple = eqx.field(static=True)
+    chunks: tuple = eqx.field(static=True)
+    length: int = eqx.field(static=True)
+    n: int = eqx.field(static=True)
+
+    @property
+    def trivial(self):
+        """One chunk holding every node in order, no separators: the plain sweeps."""
+        return not self.separators and len(self.chunks) <= 1 and self.length == self.n
+
+    def _tables(self):
+        """Static index tables: ``src`` (n_chunks * length,) the internal node of each chunk slot
+        (0 at a pad), ``real`` its mask, ``first``/``last`` the slots that start/end a piece (their
+        coupling to the slot before/after is cut), ``back`` (n,) where each node's value sits in
+        ``[chunk slots..., separators...]``."""
+        total = len(self.chunks) * self.length
+        src = np.zeros(total, dtype=int)
+        real = np.zeros(total, dtype=bool)
+        first = np.zeros(total, dtype=bool)
+        last = np.zeros(total, dtype=bool)
+        back = np.zeros(self.n, dtype=int)
+        for j, chunk in enumerate(self.chunks):
+            slot = j * self.length
+            for p in chunk:
+                a, b = self.pieces[p]
+                src[slot : slot + b - a] = np.arange(a, b)
+                real[slot : slot + b - a] = True
+                first[slot] = True
+                last[slot + b - a - 1] = True
+                back[a:b] = np.arange(slot, slot + b - a)
+                slot += b - a
+        for m, k in enumerate(self.separators):
+            back[k] = total + m
+        return src, real, first, last, back
+
+
+def chain_plan(span_nodes, max_nodes: int | None = CHAIN_CHUNK_NODES) -> ChainPlan:
+    """The :class:`ChainPlan` of a cable whose spans hold ``span_nodes`` internal nodes each (in
+    order; nodes of different spans never couple directly, the span ends being border
+    coordinates). A span of more than ``max_nodes`` nodes is cut into equal pieces at the fewest
+    separators that make each piece at most ``max_nodes`` long (with a piece on both sides of every
+    separator: at ``max_nodes = 1`` an even span keeps one piece of 2); then consecutive pieces are packed
+    into chunks of at most ``max_nodes`` nodes (the longest piece, if longer).
+
+    ``max_nodes=None``: no separators; the spans are packed into the chunks that minimise
+    ``length * (1 + chunks / 8)``, the sweeps' sequential length weighted by a small cost per
+    chunk run side by side (on the default mesh's spans of 1, 39, 39 and 1 nodes: 2 chunks of 40,
+    where 4 of 39 would take more work for one step less)."""
+    if max_nodes is None:
+        pieces = _span_pieces(span_nodes)
+        if not pieces:
+            return ChainPlan((), (), (), 0, 0)
+        sizes = [b - a for a, b in pieces]
+        best = None
+        for capacity in range(max(sizes), sum(sizes) + 1):
+            chunks = _pack(sizes, capacity)
+            length = max(sum(sizes[p] for p in c) for c in chunks)
+            cost = length * (1.0 + len(chunks) / 8.0)
+            if best is None or cost < best[0] - 1e-12:
+                best = (cost, chunks, length)
+        return ChainPlan(tuple(pieces), (), best[1], int(best[2]), int(sum(sizes)))
+    if isinstance(max_nodes, bool) or not isinstance(max_nodes, int) or max_nodes < 1:
+        raise ValueError(f"max_nodes (internal nodes per sweep) must be None or a positive integer, got {max_nodes!r}")
+    pieces, separators, start = [], [], 0
+    for count in (int(c) for c in span_nodes):
+        if count <= 0:
+            continue
+        cuts = 0  # a piece on both sides of every separator: at most (count - 1) // 2 of them
+        while -(-(count - cuts) // (cuts + 1)) > max_nodes and cuts < (count - 1) // 2:
+            cuts += 1
+        sizes = np.full(cuts + 1, (count - cuts) // (cuts + 1))
+        sizes[: (count - cuts) % (cuts + 1)] += 1
+        a = start
+        for i, size in enumerate(sizes):
+            pieces.append((a, a + int(size)))
+            a += int(size)
+            if i < cuts:
+                separators.append(a)
+                a += 1
+        start += count
+    sizes = [b - a for a, b in pieces]
+    chunks = _pack(sizes, max([max_nodes] + sizes))
+    length = max(sum(sizes[p] for p in c) for c in chunks) if chunks else 0
+    return ChainPlan(tuple(pieces), tuple(separators), chunks, int(length), int(start))
+
+
+def _span_pieces(span_nodes):
+    """The spans' nodes as ``(start, stop)`` runs (empty spans skipped)."""
+    pieces, start = [], 0
+    for count in (int(c) for c in span_nodes):
+        if count > 0:
+            pieces.append((start, start + count))
+        start += max(count, 0)
+    return pieces
+
+
+def _pack(sizes, capacity):
+    """Consecutive pieces of ``sizes`` nodes packed greedily into chunks of at most ``capacity``."""
+    chunks, current, used = [], [], 0
+    for p, size in enumerate(sizes):
+        if current and used + size > capacity:
+            chunks.append(tuple(current))
+            current, used = [], 0
+        current.append(p)
+        used += size
+    if current:
+        chunks.append(tuple(current))
+    return tuple(chunks)
+
+
+def _slots(x, plan, src, real):
+    """Internal-node rows ``x`` (c, n, ...) -> chunk slots (c, n_chunks, length, ...), pads zero."""
+    picked = x[:, src] * real.reshape((1, -1) + (1,) * (x.ndim - 2))
+    return picked.reshape((x.shape[0], len(plan.chunks), plan.length) + x.shape[2:])
+
+
+def _chunked_blocks(A_rr, plan, tables):
+    """The block-tridiagonal ``(lower, diag, upper)`` (c, n, 3, 3) on the chunk slots: pads are
+    identity rows, and the coupling across a piece's ends is cut (a separator or another span)."""
+    src, real, first, last, _ = tables
+    lower, diag, upper = A_rr
+    eye = jnp.eye(3, dtype=diag.dtype)
+    shape = (1, len(plan.chunks), plan.length, 1, 1)
+    keep_lower = (real & ~first).reshape(shape)
+    keep_upper = (real & ~last).reshape(shape)
+    lo = _slots(lower, plan, src, real) * keep_lower
+    up = _slots(upper, plan, src, real) * keep_upper
+    di = _slots(diag, plan, src, real) + (~real).reshape(shape) * eye
+    return lo, di, up
+
+
+def _bordered(A_rr, A_rz, A_zr, A_zz, plan):
+    """The separators moved into the border: ``(A_rz, A_zr)`` (c, n, 3, Z) over all internal nodes
+    and ``A_zz`` (c, Z, Z) with ``Z = 3 n_sep + n_slow`` (separator coordinates first)."""
+    if not plan.separators:
+        return A_rz, A_zr, A_zz
+    lower, diag, upper = A_rr
+    c, n = diag.shape[:2]
+    m = len(plan.separators)
+    sep = np.array(plan.separators)
+    # the separators' columns on their neighbours' rows, and their rows on their neighbours' columns
+    cols = jnp.zeros((c, n, 3, m, 3), diag.dtype)
+    cols = cols.at[:, sep - 1, :, np.arange(m), :].set(jnp.swapaxes(upper[:, sep - 1], 0, 1))
+    cols = cols.at[:, sep + 1, :, np.arange(m), :].set(jnp.swapaxes(lower[:, sep + 1], 0, 1))
+    rows = jnp.zeros((c, n, 3, m, 3), diag.dtype)  # rows[c, node, i, s, a] = A[(k_s, a), (node, i)]
+    rows = rows.at[:, sep - 1, :, np.arange(m), :].set(jnp.swapaxes(jnp.swapaxes(lower[:, sep], -1, -2), 0, 1))
+    rows = rows.at[:, sep + 1, :, np.arange(m), :].set(jnp.swapaxes(jnp.swapaxes(upper[:, sep], -1, -2), 0, 1))
+    A_rz_x = jnp.concatenate([cols.reshape(c, n, 3, 3 * m), A_rz], axis=-1)
+    A_zr_x = jnp.concatenate([rows.reshape(c, n, 3, 3 * m), A_zr], axis=-1)
+    top_left = jnp.zeros((c, m, 3, m, 3), diag.dtype).at[:, np.arange(m), :, np.arange(m), :].set(jnp.swapaxes(diag[:, sep], 0, 1))
+    top = jnp.concatenate([top_left.reshape(c, 3 * m, 3 * m), A_rz[:, sep].reshape(c, 3 * m, -1)], axis=-1)
+    bottom = jnp.concatenate([jnp.swapaxes(A_zr[:, sep].reshape(c, 3 * m, -1), -1, -2), A_zz], axis=-1)
+    return A_rz_x, A_zr_x, jnp.concatenate([top, bottom], axis=-2)
 
 
 class CableLinearisation(eqx.Module):
@@ -84,6 +257,9 @@ class CableLinearisation(eqx.Module):
     coupling: "HookCoupling | None" = None
     """The cable rows' columns on the rocket's coordinates (the contact forces move with the
     hooks), applied as a JVP per solve; None: the hooks held fixed (the rocket's columns zero)."""
+    plan: ChainPlan | None = None
+    """How the internal nodes are split for the sweeps (:func:`chain_plan`); None: one sweep over
+    all of them."""
 
     def factor(self, beta):
         B = self.blocks
@@ -100,8 +276,17 @@ class CableLinearisation(eqx.Module):
             E = jnp.eye(n_slow, dtype=A_zz.dtype)[active]
             A_zz = A_zz.at[..., active, :].set((beta**2) * E)
             A_zr = A_zr.at[..., active].set(0.0)
-        F = banded.factor(*A_rr)
-        Y = jax.vmap(lambda col: banded.solve(F, col), in_axes=-1, out_axes=-1)(A_rz)  # A_rr^-1 A_rz
+        plan = self.plan
+        if plan is None or plan.trivial:
+            F = banded.factor(*A_rr)
+            Y = jax.vmap(lambda col: banded.solve(F, col), in_axes=-1, out_axes=-1)(A_rz)  # A_rr^-1 A_rz
+        else:  # shorter sweeps: the chunks side by side, the separators in the border
+            tables = plan._tables()
+            A_rz, A_zr, A_zz = _bordered(A_rr, A_rz, A_zr, A_zz, plan)
+            A_rz, A_zr = (_slots(a, plan, tables[0], tables[1]) for a in (A_rz, A_zr))
+            F = banded.factor(*_chunked_blocks(A_rr, plan, tables))
+            Y = jax.vmap(lambda col: banded.solve(F, col), in_axes=-1, out_axes=-1)(A_rz)
+            A_rz, A_zr, Y = (a.reshape(a.shape[:1] + (-1,) + a.shape[3:]) for a in (A_rz, A_zr, Y))
         S = A_zz - jnp.einsum("cnis,cnit->cst", A_zr, Y)
         hinge_inv = None
         if self.hinge is not None:  # the hooks' hinges: beta^2 I - beta C_h - K_h, inverted once per step
@@ -189,9 +374,20 @@ class _CableFactors(eqx.Module):
         active = list(self.lin.active)
         if active:
             g_z = g_z.at[..., active].set(beta * bv_z[..., active])
-        w = banded.solve(self.F, g_r)
-        x_z = _zz(self.S_inv, g_z - _zr(self.A_zr, w))
-        x_r = w - _rz(self.Y, x_z)
+        plan = self.lin.plan
+        if plan is None or plan.trivial:
+            w = banded.solve(self.F, g_r)
+            x_z = _zz(self.S_inv, g_z - _zr(self.A_zr, w))
+            x_r = w - _rz(self.Y, x_z)
+        else:
+            src, real, _, _, back = plan._tables()
+            c, m = g_r.shape[0], len(plan.separators)
+            g_x = jnp.concatenate([g_r[:, np.array(plan.separators, dtype=int)].reshape(c, 3 * m), g_z], axis=-1)
+            w = banded.solve(self.F, _slots(g_r, plan, src, real)).reshape(c, -1, 3)
+            x_x = _zz(self.S_inv, g_x - _zr(self.A_zr, w))
+            x_slots = w - _rz(self.Y, x_x)
+            x_r = jnp.concatenate([x_slots, x_x[:, : 3 * m].reshape(c, m, 3)], axis=1)[:, back]
+            x_z = x_x[:, 3 * m :]
         xq_r, xq_z = (bq_r + x_r) / beta, (bq_z + x_z) / beta
         n_p, h_shape = bq_s.shape[-1], bq_h.shape
         new = (

@@ -16,10 +16,10 @@ from jax.flatten_util import ravel_pytree
 
 from jaxcable import simulate
 from jaxcable.arresting.passive import passive_landing_scene
-from jaxcable.arresting.stiff import dense_reference
+from jaxcable.arresting.stiff import chain_plan, dense_reference
 from jaxcable.components.contact import ContactLaw
 from jaxcable.core.config import enable_x64
-from jaxcable.core.rosenbrock import RosenbrockW
+from jaxcable.core.rosenbrock import ROS34PW2, RosenbrockW
 
 enable_x64()
 
@@ -187,6 +187,83 @@ def test_structured_step_equals_the_dense_reference(h, hook_contact):
     np.testing.assert_allclose(np.asarray(y_s), np.asarray(y_d), atol=1e-10 * scale)
     np.testing.assert_allclose(np.asarray(e_s), np.asarray(e_d), atol=1e-10 * scale)
     assert np.all(np.isfinite(np.asarray(y_s)))
+
+
+def test_chain_plan_cuts_long_spans_at_separators():
+    """The split of the sweeps (:func:`chain_plan`): every internal node is in exactly one piece or
+    is a separator; no piece crosses a span's end or holds a separator; pieces and chunks are at
+    most ``max_nodes`` long; a separator has a piece on both sides; the default mesh's two 39-node
+    spans (with the towers' single nodes) become four chunks of 20."""
+    for counts in ([0, 1, 39, 39, 1, 0], [0, 1, 7, 1, 0], [5], [0, 2, 64, 2, 0], [3, 0, 3]):
+        spans = np.cumsum([0] + counts)
+        for max_nodes in (1, 2, 3, 7, 20, 40, 200):
+            plan = chain_plan(counts, max_nodes)
+            seen = np.zeros(plan.n, int)
+            for a, b in plan.pieces:
+                assert 0 < b - a <= max(max_nodes, 2)  # 2: an even span at max_nodes = 1
+                seen[a:b] += 1
+                assert np.searchsorted(spans, a, side="right") == np.searchsorted(spans, b - 1, side="right")
+            for k in plan.separators:
+                seen[k] += 1
+                assert any(b == k for _, b in plan.pieces) and any(a == k + 1 for a, _ in plan.pieces)
+            assert np.all(seen == 1) and plan.n == sum(counts)
+            assert sorted(p for c in plan.chunks for p in c) == list(range(len(plan.pieces)))
+            assert plan.length <= max(max_nodes, 2)
+            assert plan.trivial == (max_nodes >= plan.n)
+    plan = chain_plan([0, 1, 39, 39, 1, 0], 20)
+    assert (len(plan.chunks), plan.length, plan.separators) == (4, 20, (20, 59))
+    # the scenes' default (no separators): the two spans side by side, each with its tower node
+    plan = chain_plan([0, 1, 39, 39, 1, 0])
+    assert (plan.chunks, plan.length, plan.separators) == (((0, 1), (2, 3)), 40, ())
+    assert chain_plan([0, 2, 64, 2, 0]).trivial and chain_plan([]).trivial
+    for bad in (0, -3, 2.5, True):
+        with pytest.raises(ValueError, match="max_nodes"):
+            chain_plan([4], bad)
+
+
+@pytest.mark.parametrize("hook_contact, max_nodes", [("capsule", 2), ("node", 1), ("node", 2)])
+def test_shorter_sweeps_solve_like_the_dense_reference(hook_contact, max_nodes):
+    """The sweeps cut at separator nodes (which join the border's Schur complement) and run side by
+    side: one step equals the dense LU of the same ``J`` to round-off, as the single sweep does;
+    on 8 span elements, so that the cuts fall inside the spans (the default mesh cuts at 20)."""
+    import dataclasses
+
+    scene = passive_landing_scene("ale", t_end_s=T_END, cable_damping_s=1e-3, n_span_elements=8, n_fine=4, hook_contact=hook_contact)
+    y = _moving_state(scene)
+    counts = [np.shape(f)[-1] for f in scene.cables.subsystems.route.fractions]
+    plan = chain_plan(counts, max_nodes)
+    assert plan.separators and not plan.trivial
+    term = diffrax.ODETerm(lambda t, y, args: scene.vector_field(t, y))
+    cut = RosenbrockW(linearise=lambda t, y_: dataclasses.replace(scene.stiff_linearisation(t, y_), plan=plan))
+    dense = RosenbrockW(linearise=lambda t, y_: dense_reference(scene.stiff_linearisation(t, y_), y_))
+
+    @jax.jit
+    def step(y):
+        out = []
+        for solver in (cut, dense):
+            state = solver.init(term, 0.0, 1e-4, y, None)
+            y1, err, *_ = solver.step(term, 0.0, 1e-4, y, None, state, False)
+            out.append((ravel_pytree(y1)[0], ravel_pytree(err)[0]))
+        return out
+
+    (y_c, e_c), (y_d, e_d) = step(y)
+    np.testing.assert_allclose(np.asarray(y_c), np.asarray(y_d), atol=1e-10 * np.abs(np.asarray(y_d)).max())
+    np.testing.assert_allclose(np.asarray(e_c), np.asarray(e_d), atol=1e-10 * np.abs(np.asarray(e_d)).max())
+
+    # derivatives through the cut solve: those of the single sweep (whose solves the whole-run
+    # gradient test checks against central differences), forward and reverse
+    lin = scene.stiff_linearisation(0.0, y)
+    rhs = jax.tree_util.tree_map(lambda x: jnp.cos(jnp.arange(x.size, dtype=float).reshape(x.shape)), y)
+
+    def solution(beta, plan_):
+        x = dataclasses.replace(lin, plan=plan_).factor(beta).solve(rhs)
+        return jnp.sum(jnp.sin(ravel_pytree(x)[0]))
+
+    beta0 = 1.0 / (1e-4 * ROS34PW2.gamma)
+    for mode in (jax.grad, lambda f: (lambda b: jax.jvp(f, (b,), (1.0,))[1])):
+        d_cut = float(mode(lambda b: solution(b, plan))(beta0))
+        d_one = float(mode(lambda b: solution(b, None))(beta0))
+        assert np.isfinite(d_cut) and d_cut == pytest.approx(d_one, rel=1e-8, abs=1e-14)
 
 
 @pytest.fixture(scope="module")
