@@ -16,7 +16,9 @@ the difference between two variants is the cost of what one adds):
 * ``rosw``: the same with the hook coupling (what ``simulate(solver="rosw")`` runs), the
   linearisation every step (``jacobian_every=1``, which batched sweeps do) and every 2 steps
   (the default for single runs); and every 2 steps with the contact of all ``contact_tangent_pairs``
-  in ``J`` instead of the ``stiff_contact_pairs`` deepest (:class:`AleCables`).
+  in ``J`` instead of the ``stiff_contact_pairs`` deepest (:class:`AleCables`); and every 2 steps
+  with one block-tridiagonal sweep over each cable's internal nodes instead of its spans side by
+  side (``CableLinearisation.plan``, :func:`jaxcable.arresting.stiff.chain_plan`).
 
 Variants run in rounds (:func:`_report.time_rounds`, the best of ``--repeats``), so a change of
 the machine's load hits each alike. Writes ``bench_step_parts<tag>.json/.md``. Usage:
@@ -25,6 +27,7 @@ the machine's load hits each alike. Writes ``bench_step_parts<tag>.json/.md``. U
     python experiments/bench_step_parts.py --level ale --tag _ale
     python experiments/bench_step_parts.py --hook-contact node --mesh 64 32 --tag _node64
     python experiments/bench_step_parts.py --hook-contact node --mesh 80 16 --batch 4 --steps 100 --tag _node80_batch4
+    python experiments/bench_step_parts.py --hook-contact node --mesh 80 16 --only "every 2 steps" --tag _node80_sweeps
 """
 
 from __future__ import annotations
@@ -37,7 +40,7 @@ T_START_S = 0.05
 """Time after capture [s] of the state the steps start from (the hooks have picked the cables up)."""
 
 
-def build(level, dt, steps, hook_contact="capsule", mesh=(32, 16), batch=1):
+def build(level, dt, steps, hook_contact="capsule", mesh=(32, 16), batch=1, only=()):
     import dataclasses
 
     import diffrax
@@ -77,6 +80,9 @@ def build(level, dt, steps, hook_contact="capsule", mesh=(32, 16), batch=1):
             total = sum(jax.numpy.sum(x) for x in jax.tree_util.tree_leaves(kept) if eqx.is_array(x))
             return ExplicitLinearisation().factor(beta + 0.0 * total)
 
+    def one_sweep(t, y):  # the sweeps over all of a cable's internal nodes, not the spans side by side
+        return dataclasses.replace(scene.stiff_linearisation(t, y), plan=None)
+
     def linearisation_only(t, y):
         return Unused(scene.stiff_linearisation(t, y), factored=False)
 
@@ -91,7 +97,10 @@ def build(level, dt, steps, hook_contact="capsule", mesh=(32, 16), batch=1):
         "rosw, no coupling, J every step": RosenbrockW(linearise=no_coupling, jacobian_every=1),
         "rosw, J every step": RosenbrockW(linearise=scene.stiff_linearisation, jacobian_every=1),
         "rosw, J every 2 steps": RosenbrockW(linearise=scene.stiff_linearisation, jacobian_every=2),
+        "rosw, J every 2 steps, one sweep over each cable's nodes": RosenbrockW(linearise=one_sweep, jacobian_every=2),
     }
+    if only:
+        solvers = {k: v for k, v in solvers.items() if k == "bosh3" or any(o in k for o in only)}
     if hook_contact == "capsule":  # the node has no contact pairs
         solvers[f"rosw, J every 2 steps, {every} pairs in J"] = RosenbrockW(linearise=every_pair.stiff_linearisation, jacobian_every=2)
 
@@ -149,6 +158,7 @@ def main():
     p.add_argument("--hook-contact", choices=("capsule", "node"), default="capsule", help="the hook model (default capsule: the records')")
     p.add_argument("--mesh", nargs=2, type=int, default=[32, 16], metavar=("SPAN", "FINE"), help="span elements and fine ones (default 32 16)")
     p.add_argument("--batch", type=int, default=1, help="cases vmapped (the state repeated), as a sweep's batch; times per case (default 1)")
+    p.add_argument("--only", nargs="+", default=[], metavar="TEXT", help="run bosh3 and the variants whose names contain any TEXT (default: all)")
     p.add_argument("--out", default=None)
     args = p.parse_args()
 
@@ -156,7 +166,7 @@ def main():
 
     enable_x64()
     data = _report.start(level=args.level, steps=args.steps, dt_s=args.dt, repeats=args.repeats, hook_contact=args.hook_contact, mesh=args.mesh, batch=args.batch)
-    calls = build(args.level, args.dt, args.steps, args.hook_contact, tuple(args.mesh), args.batch)
+    calls = build(args.level, args.dt, args.steps, args.hook_contact, tuple(args.mesh), args.batch, tuple(args.only))
     _, first, best = _report.time_rounds(calls, args.repeats)
     data["per_step_us"] = {k: 1e6 * best[k] / args.steps / args.batch for k in calls}
     data["first_call_s"] = first
