@@ -60,7 +60,8 @@ CHAIN_CHUNK_NODES = None
 """Default ``max_nodes`` of :func:`chain_plan` for the scenes' linearisation: ``None``, the spans
 as they are, packed into chunks that run side by side (no separators). On the default mesh that
 is 2 chunks of 40 nodes instead of one sweep over 80: the design case at the full level took
-0.91-0.96x the time over its first 0.3 s and 0.97-1.02x over the whole 1 s, in the same steps
+0.91-0.96x the time over its first 0.3 s and 0.97-1.02x (0.99x in one process) over the whole
+1 s, in the same steps
 (a constant-step benchmark of 2e-6 s steps read 1.06x; the docs weigh them); cutting the spans further at separators (20 nodes,
 2 separators a cable; 10 nodes, 6) was slower, 0.98x and 1.43x, as the border's Schur complement
 grows (``docs/stiff_integrator.md``, "Shorter sweeps")."""
