@@ -61,10 +61,10 @@ CHAIN_CHUNK_NODES = None
 as they are, packed into chunks that run side by side (no separators). On the default mesh that
 is 2 chunks of 40 nodes instead of one sweep over 80: the design case at the full level took
 0.91-0.96x the time over its first 0.3 s and 0.97-1.02x (0.99x in one process) over the whole
-1 s, in the same steps
-(a constant-step benchmark of 2e-6 s steps read 1.06x; the docs weigh them); cutting the spans further at separators (20 nodes,
-2 separators a cable; 10 nodes, 6) was slower, 0.98x and 1.43x, as the border's Schur complement
-grows (``docs/stiff_integrator.md``, "Shorter sweeps")."""
+1 s, in the same steps (a constant-step benchmark of 2e-6 s steps read 1.06x; the docs weigh
+them); cutting the spans further at separators (20 nodes, 2 separators a cable; 10 nodes, 6) was
+slower, 0.98x and 1.43x, as the border's Schur complement grows (``docs/stiff_integrator.md``,
+"Shorter sweeps")."""
 
 
 class ChainPlan(eqx.Module):
@@ -116,34 +116,21 @@ def chain_plan(span_nodes, max_nodes: int | None = CHAIN_CHUNK_NODES) -> ChainPl
     order; nodes of different spans never couple directly, the span ends being border
     coordinates). A span of more than ``max_nodes`` nodes is cut into equal pieces at the fewest
     separators that make each piece at most ``max_nodes`` long (with a piece on both sides of every
-    separator: at ``max_nodes = 1`` an even span keeps one piece of 2); then consecutive pieces are packed
-    into chunks of at most ``max_nodes`` nodes (the longest piece, if longer).
+    separator: at ``max_nodes = 1`` an even span keeps one piece of 2); then consecutive pieces are
+    packed into chunks of at most ``max_nodes`` nodes (the longest piece, if longer).
 
     ``max_nodes=None``: no separators; the spans are packed into the chunks that minimise
     ``length * (1 + chunks / 8)``, the sweeps' sequential length weighted by a small cost per
     chunk run side by side (on the default mesh's spans of 1, 39, 39 and 1 nodes: 2 chunks of 40,
     where 4 of 39 would take more work for one step less)."""
-    if max_nodes is None:
-        pieces = _span_pieces(span_nodes)
-        if not pieces:
-            return ChainPlan((), (), (), 0, 0)
-        sizes = [b - a for a, b in pieces]
-        best = None
-        for capacity in range(max(sizes), sum(sizes) + 1):
-            chunks = _pack(sizes, capacity)
-            length = max(sum(sizes[p] for p in c) for c in chunks)
-            cost = length * (1.0 + len(chunks) / 8.0)
-            if best is None or cost < best[0] - 1e-12:
-                best = (cost, chunks, length)
-        return ChainPlan(tuple(pieces), (), best[1], int(best[2]), int(sum(sizes)))
-    if isinstance(max_nodes, bool) or not isinstance(max_nodes, int) or max_nodes < 1:
+    if max_nodes is not None and (isinstance(max_nodes, bool) or not isinstance(max_nodes, int) or max_nodes < 1):
         raise ValueError(f"max_nodes (internal nodes per sweep) must be None or a positive integer, got {max_nodes!r}")
     pieces, separators, start = [], [], 0
     for count in (int(c) for c in span_nodes):
         if count <= 0:
             continue
         cuts = 0  # a piece on both sides of every separator: at most (count - 1) // 2 of them
-        while -(-(count - cuts) // (cuts + 1)) > max_nodes and cuts < (count - 1) // 2:
+        while max_nodes is not None and -(-(count - cuts) // (cuts + 1)) > max_nodes and cuts < (count - 1) // 2:
             cuts += 1
         sizes = np.full(cuts + 1, (count - cuts) // (cuts + 1))
         sizes[: (count - cuts) % (cuts + 1)] += 1
@@ -156,19 +143,19 @@ def chain_plan(span_nodes, max_nodes: int | None = CHAIN_CHUNK_NODES) -> ChainPl
                 a += 1
         start += count
     sizes = [b - a for a, b in pieces]
-    chunks = _pack(sizes, max([max_nodes] + sizes))
-    length = max(sum(sizes[p] for p in c) for c in chunks) if chunks else 0
-    return ChainPlan(tuple(pieces), tuple(separators), chunks, int(length), int(start))
+    if not sizes:
+        return ChainPlan((), (), (), 0, 0)
+    if max_nodes is None:  # the first of equal costs: the fewest nodes a chunk
+        packings = (_pack(sizes, capacity) for capacity in range(max(sizes), sum(sizes) + 1))
+        chunks = min(packings, key=lambda c: _chunk_length(sizes, c) * (1.0 + len(c) / 8.0))
+    else:
+        chunks = _pack(sizes, max([max_nodes] + sizes))
+    return ChainPlan(tuple(pieces), tuple(separators), chunks, _chunk_length(sizes, chunks), int(start))
 
 
-def _span_pieces(span_nodes):
-    """The spans' nodes as ``(start, stop)`` runs (empty spans skipped)."""
-    pieces, start = [], 0
-    for count in (int(c) for c in span_nodes):
-        if count > 0:
-            pieces.append((start, start + count))
-        start += max(count, 0)
-    return pieces
+def _chunk_length(sizes, chunks):
+    """The nodes in the longest of ``chunks`` (tuples of piece indices into ``sizes``)."""
+    return int(max(sum(sizes[p] for p in c) for c in chunks))
 
 
 def _pack(sizes, capacity):

@@ -225,7 +225,8 @@ def test_chain_plan_cuts_long_spans_at_separators():
 def test_shorter_sweeps_solve_like_the_dense_reference(hook_contact, max_nodes):
     """The sweeps cut at separator nodes (which join the border's Schur complement) and run side by
     side: one step equals the dense LU of the same ``J`` to round-off, as the single sweep does;
-    on 8 span elements, so that the cuts fall inside the spans (the default mesh cuts at 20)."""
+    on 8 span elements with 1-2 nodes a piece, so that the cuts fall inside the spans (the scenes'
+    default makes no cuts: it splits at the spans' ends only)."""
     import dataclasses
 
     scene = passive_landing_scene("ale", t_end_s=T_END, cable_damping_s=1e-3, n_span_elements=8, n_fine=4, hook_contact=hook_contact)
