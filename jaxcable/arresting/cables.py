@@ -277,37 +277,62 @@ class CableRoute(eqx.Module):
         F = jnp.where(iidx >= 0, frac[np.maximum(iidx, 0)] if self.n_internal else 0.0, 0.0)
         return boundary + (1.0 - F)[:, None] * start + F[:, None] * end
 
-    def mass_pattern_inverse(self):
-        """``blockdiag_j(That_j^-1)`` (n_int, n_int): inverse of the internal-node consistent-mass
-        pattern. Span j's internal-node mass block is ``rhoA L_j / 6 That_j`` (x) I3 with ``That_j``
-        tridiagonal in the material fractions (diagonal ``2 (dF_left + dF_right)``, off-diagonal the
-        shared element's ``dF``), so it depends only on the (constant) fractions: under ``jit`` XLA
-        computes it once, outside the solver's loop."""
-        _, iidx, _, _ = self._index_tables()
-        internal = np.nonzero(iidx >= 0)[0]
-        W = self.interpolation_weights()
-        _, _, end, _ = self._interpolation_tables()
-        # fraction of every node within the span of each element: 0 at the span start, 1 at its end
-        F = jnp.sum(W * end, axis=1)  # internal: F; boundary nodes: 0
-        F_right = jnp.where(iidx[1:] >= 0, F[1:], 1.0)
-        dF = F_right - F[:-1]  # (n_el,) element lengths as fractions of their span
-        dF_node = jnp.concatenate([jnp.zeros(1, dF.dtype), dF, jnp.zeros(1, dF.dtype)])
-        diag = 2.0 * (dF_node[internal] + dF_node[internal + 1])
-        off = jnp.where(np.diff(internal) == 1, dF[internal[:-1]], 0.0)
-        pattern = jnp.diag(diag) + jnp.diag(off, 1) + jnp.diag(off, -1)
-        return _dominant_inverse(pattern)
+    def span_slow_tables(self):
+        """Static, per span ``j`` (between boundary nodes ``j`` and ``j + 1``): which slow coordinates
+        (``(s, h, u)`` flattened as in :meth:`CableSubsystem.accelerations`: the ``n_p`` pulley
+        slots, the hooks' ``3 n_h`` positions, the block's ``u``) the span's kinetic energy sees.
+        A span's material velocities depend only on its two ends' slots (its nodes' material
+        coordinates interpolate those two), on a hook end's position and on a block end's travel.
+        Each entry: ``dict(cols, slots, hook, block, n_el, first_element, first_internal)``:
+        ``cols`` the global slow indices of the span's local columns, ``slots`` per end the local
+        column of its slot or ``None`` (an ``"end"`` node has none), ``hook`` per end the local
+        columns of its position (3) or ``None``, ``block`` per end the local column of ``u`` if it
+        rides the block or ``None``."""
+        n_p, n_h = len(self.pulley_ids), len(self.hook_ids)
+        u_col = n_p + 3 * n_h
+        tables, element, internal = [], 0, 0
+        for j, n_el in enumerate(self.elements):
+            cols, slots, hook, block = [], [], [], []
+            for b in (j, j + 1):
+                slots.append(len(cols) if b in self.pulley_ids else None)
+                if b in self.pulley_ids:
+                    cols.append(self.pulley_ids.index(b))
+            for b in (j, j + 1):
+                if self.kinds[b] == "hook":
+                    k = self.hook_ids.index(b)
+                    hook.append(tuple(range(len(cols), len(cols) + 3)))
+                    cols.extend(n_p + 3 * k + i for i in range(3))
+                else:
+                    hook.append(None)
+                if self.moving[b]:
+                    if u_col not in cols:
+                        cols.append(u_col)
+                    block.append(cols.index(u_col))
+                else:
+                    block.append(None)
+            tables.append(
+                dict(cols=tuple(cols), slots=tuple(slots), hook=tuple(hook), block=tuple(block), n_el=n_el,
+                     first_element=element, first_internal=internal)
+            )  # fmt: skip
+            element += n_el
+            internal += n_el - 1
+        return tables
 
-    def apply_mass_pattern_inverse(self, x):
-        """``mass_pattern_inverse() @ x`` for ``x`` (n_int, m), span by span: the pattern is block
-        diagonal over the spans, so each span's rows take only their own block."""
-        inverse = self.mass_pattern_inverse()
-        pieces, start = [], 0
-        for n_el in self.elements:
-            m = n_el - 1
-            if m > 0:
-                pieces.append(inverse[start : start + m, start : start + m] @ x[start : start + m])
-                start += m
-        return jnp.concatenate(pieces)
+    def span_pattern_inverses(self):
+        """Per span with internal nodes, ``That_j^-1`` (m_j, m_j): the inverse of its internal-node
+        consistent-mass pattern (:meth:`mass_pattern_inverse`'s diagonal blocks, computed block by
+        block). ``That_j`` is tridiagonal in the material fractions ``F`` (diagonal ``2 (dF_left +
+        dF_right)``, off-diagonal the shared element's ``dF``), so it depends only on the (constant)
+        fractions: under ``jit`` XLA computes the inverses once, outside the solver's loop."""
+        out = []
+        for f, n_el in zip(self.fractions, self.elements):
+            if n_el < 2:
+                continue
+            F = jnp.concatenate([jnp.zeros(1, f.dtype), jnp.asarray(f), jnp.ones(1, f.dtype)])
+            dF = F[1:] - F[:-1]
+            pattern = jnp.diag(2.0 * (dF[:-1] + dF[1:])) + jnp.diag(dF[1:-1], 1) + jnp.diag(dF[1:-1], -1)
+            out.append(_dominant_inverse(pattern))
+        return out
 
     def boundary_s(self, q: CableCoords):
         return self._boundary_values(self.s_boundary0, q.s)
@@ -453,6 +478,31 @@ def _scatter_element_ends(rows):
     F_r = jnp.concatenate([f_r[:, 0], zr]) + jnp.concatenate([zr, f_r[:, 1]])
     F_s = jnp.concatenate([f_s[:, 0], zs]) + jnp.concatenate([zs, f_s[:, 1]])
     return F_r, F_s
+
+
+def _contract(A, B):
+    """``sum_{e,x} A[e, x, k] B[e, x, l]`` (k, l): one ``dot`` (over the elements and the three
+    components) into a span's small slow block."""
+    return jnp.einsum("exk,exl->kl", A, B)
+
+
+def _spread(cols, M, n):
+    """A span's (k, k) slow block ``M`` on its global slow columns ``cols`` (static) of an (n, n)
+    block: a scatter-add. (As one-hot products ``E M E^T``, or as multiply-sums, the vector field
+    of the full design case took 1.1-1.3x as long: ``docs/stiff_integrator.md``.)"""
+    idx = np.asarray(cols, dtype=int)
+    return jnp.zeros((n, n), M.dtype).at[idx[:, None], idx[None, :]].add(M)
+
+
+def _spread_vec(cols, v, n):
+    """``v`` (k,) on the global slow columns ``cols`` of an (n,) vector."""
+    return jnp.zeros(n, v.dtype).at[np.asarray(cols, dtype=int)].add(v)
+
+
+def _gather_vec(cols, v):
+    """``v[cols]`` (k,) of the (n,) vector ``v`` for static ``cols``, as a one-hot multiply-sum (no gather)."""
+    E = np.eye(v.shape[0])[:, list(cols)]
+    return jnp.sum(E * v[:, None], axis=0)
 
 
 def _matvec(A, x):
@@ -863,10 +913,19 @@ class CableSubsystem(eqx.Module):
         consistent-mass tridiagonal (x) I3, the coupling rows are ``c (2 G_self + G_other)`` and the
         slow block is ``sum c (G_1^T (2 G_1 + G_2) + G_2^T (G_1 + 2 G_2))``; we solve by the Schur
         complement on the slow coordinates. The internal-node block's inverse is a constant pattern
-        scaled per span (:meth:`CableRoute.mass_pattern_inverse`), so the solve is one dense product
-        per span (quadratic in the span's internal nodes, 31 on the default mesh's arresting spans)
+        scaled per span (:meth:`CableRoute.span_pattern_inverses`), so the solve is one dense product
+        per span (quadratic in the span's internal nodes, 39 on the default mesh's arresting spans)
         and a Gauss-Jordan on the few slow coordinates, all in closed form (no autodiff and no
         LAPACK call inside the vector field).
+
+        Span by span: a span's nodes see only its own ends' slow coordinates
+        (:meth:`CableRoute.span_slow_tables`: the two slots its material coordinates interpolate, a
+        hook end's position, a block end's travel), so ``G``, the coupling rows and their product
+        with the inverse are built on those ``k`` local columns (5 on an arresting span beside a hook
+        node, against all 9 of the cable), and each span's share of the slow block and of the Schur
+        complement is added onto its columns. On the full design case this took 0.71x the time of
+        the same solve on all the cable's slow columns per evaluation of the vector field
+        (``docs/stiff_integrator.md``).
         """
         route = self.route
         kin = self.kinematics(q, qdot) if kin is None else kin
@@ -875,65 +934,91 @@ class CableSubsystem(eqx.Module):
             Q_r = Q_r + external.r
             Q_slow = Q_slow + jnp.concatenate([external.s, external.h.reshape(-1), external.u[None]])
         b = self.buffer
-        _, iidx, _, _ = route._index_tables()
-        internal = np.nonzero(iidx >= 0)[0]
-        S, t, U, c, G1, G2, H1, H2 = self._slow_velocity_jacobians(kin)
-        # The slow blocks (M_ss, the Schur complement, its right-hand side) sum over every element: one
-        # dot each. As multiply-sums, XLA's CPU backend compiled them to library ("ynn") fusions that
-        # took most of the ale vector field (47 + 16 us of ~76 us; with two tangents 160 + 50 + 40 us;
-        # docs/notes/kernel_profiles.md). Their left operands are built with the slow
-        # axis first, (n_slow, n_el, 3), elementwise: read from G1 (n_el, 3, n_slow), the dot first
-        # made a transposing copy (12 us each with two tangents; without it the ale forward call was 7%
-        # faster on the mean of five alternating runs, about this machine's noise).
-        HcT = np.transpose(route.hook_columns(), (2, 0, 1))  # (3 n_h, N, 3)
-        G1T = jnp.concatenate([-S[:-1].T[:, :, None] * t[None], HcT[:, :-1], U[None, :-1]], axis=0)
-        G2T = jnp.concatenate([-S[1:].T[:, :, None] * t[None], HcT[:, 1:], U[None, 1:]], axis=0)
-        n_slow = G1T.shape[0]
-        M_ss = jnp.concatenate([G1T, G2T], axis=1).reshape(n_slow, -1) @ jnp.concatenate([H1, H2]).reshape(-1, n_slow)
-        M_ss = M_ss.at[n_slow - 1, n_slow - 1].add(b.counterweight_mass_kg * b.transfer_rate**2)
+        n_p = len(route.pulley_ids)
+        n_slow = n_p + 3 * len(route.hook_ids) + 1
+        t = kin.tangent
+        c = (self.cable.rhoA_kg_per_m / 6.0) * kin.length  # (n_el,)
+        sb = route.boundary_s(q)
+        inverses = iter(route.span_pattern_inverses())
+        M_ss = jnp.zeros((n_slow, n_slow), c.dtype).at[n_slow - 1, n_slow - 1].set(
+            b.counterweight_mass_kg * b.transfer_rate**2
+        )
+        parts = []
+        reduced_rhs = Q_slow
+        for j, span in enumerate(route.span_slow_tables()):
+            # The span's material velocities at its elements' ends, G = d a / d q_slow (n_el, 3, k) on
+            # its k local slow columns: -t (1 - F) and -t F on its ends' slots (F the node's fraction
+            # of the span: 0 at its first end, 1 at its last), plus the hook's identity and the
+            # block's direction at an end node that is a hook or rides the block.
+            n_el, e0, cols = span["n_el"], span["first_element"], span["cols"]
+            k = len(cols)
+            if k == 0 and n_el < 2:
+                continue
+            f = route.fractions[j]
+            F = jnp.concatenate([jnp.zeros(1, c.dtype), jnp.asarray(f, dtype=c.dtype), jnp.ones(1, c.dtype)])
+            weights = [None, None]
+            for end_, slot in enumerate(span["slots"]):
+                if slot is not None:
+                    weights[end_] = (slot, 1.0 - F if end_ == 0 else F)
+            t_j, c_j = t[e0 : e0 + n_el], c[e0 : e0 + n_el]
+            G1 = jnp.zeros((n_el, 3, k), c.dtype)
+            G2 = jnp.zeros((n_el, 3, k), c.dtype)
+            for w in weights:
+                if w is not None:
+                    onehot = np.eye(k)[w[0]]
+                    G1 = G1 - t_j[:, :, None] * (w[1][:-1, None, None] * onehot)
+                    G2 = G2 - t_j[:, :, None] * (w[1][1:, None, None] * onehot)
+            for end_ in (0, 1):
+                V = np.zeros((3, k))
+                if span["hook"][end_] is not None:
+                    V[:, list(span["hook"][end_])] = np.eye(3)
+                V = jnp.asarray(V, c.dtype)
+                if span["block"][end_] is not None:
+                    V = V + route.block_direction[:, None] * np.eye(k)[span["block"][end_]][None, :]
+                if span["hook"][end_] is None and span["block"][end_] is None:
+                    continue
+                at = np.zeros(n_el)
+                at[0 if end_ == 0 else n_el - 1] = 1.0
+                if end_ == 0:
+                    G1 = G1 + at[:, None, None] * V[None]
+                else:
+                    G2 = G2 + at[:, None, None] * V[None]
+            H1 = c_j[:, None, None] * (2.0 * G1 + G2)
+            H2 = c_j[:, None, None] * (G1 + 2.0 * G2)
+            M_j = _contract(G1, H1) + _contract(G2, H2)
+            if n_el < 2:
+                M_ss = M_ss + _spread(cols, M_j, n_slow)
+                continue
+            # The internal nodes' block is rhoA L_j / 6 That_j (x) I3 (L_j the span's material length,
+            # That_j constant: route.span_pattern_inverses), coupled to the k local slow columns by
+            # M_rs (m, 3, k): one product with the constant inverse for the forces and those columns.
+            m = n_el - 1
+            i0 = span["first_internal"]
+            M_rs = H2[:-1] + H1[1:]
+            rhs = jnp.concatenate([Q_r[i0 : i0 + m], M_rs.reshape(m, 3 * k)], axis=1)
+            sol = (6.0 / (self.cable.rhoA_kg_per_m * (sb[j + 1] - sb[j]))) * (next(inverses) @ rhs)
+            Y, Z = sol[:, :3], sol[:, 3:].reshape(m, 3, k)
+            M_ss = M_ss + _spread(cols, M_j - _contract(M_rs, Z), n_slow)
+            reduced_rhs = reduced_rhs - _spread_vec(cols, _contract(M_rs, Y[..., None])[:, 0], n_slow)
+            parts.append((Y, Z, cols))
+        schur = M_ss
         active = np.array(route.active_slots, dtype=int)
-        if internal.size:
-            zero = jnp.zeros((1,) + H1.shape[1:], H1.dtype)
-            # coupling rows of the internal nodes: (n_int, 3, n_slow)
-            M_rs = route.internal_rows(jnp.concatenate([H1, zero]) + jnp.concatenate([zero, H2]))
-            # the same rows with the slow axis first, (n_slow, n_int * 3), for the dots below
-            cT = c[None, :, None]
-            zeroT = jnp.zeros((n_slow, 1, 3), H1.dtype)
-            nodalT = jnp.concatenate([cT * (2.0 * G1T + G2T), zeroT], axis=1) + jnp.concatenate(
-                [zeroT, cT * (G1T + 2.0 * G2T)], axis=1
-            )
-            M_rsT = route.internal_rows(nodalT.swapaxes(0, 1)).swapaxes(0, 1).reshape(n_slow, -1)
-            # The internal-node block is blockdiag_j(rhoA L_j / 6 That_j) (x) I3 over the spans j, with
-            # L_j the span's material length and That_j the tridiagonal of its material fractions
-            # (constant in time), so its inverse is a scaled constant matrix: one small matmul per span
-            # and evaluation, and the inverse itself depends only on parameters, so XLA hoists it out of
-            # the solver's loop (no LAPACK call per evaluation; docs/notes/ale_vector_field.md, and the
-            # compiled design case's program in docs/stiff_integrator.md).
-            n_int = internal.size
-            sb = route.boundary_s(q)
-            span_length = jnp.concatenate(
-                [jnp.broadcast_to(sb[j + 1] - sb[j], (n - 1,)) for j, n in enumerate(route.elements) if n > 1]
-            )
-            rhs = jnp.concatenate([Q_r, M_rs.reshape(n_int, 3 * n_slow)], axis=1)
-            sol = (6.0 / self.cable.rhoA_kg_per_m) / span_length[:, None] * route.apply_mass_pattern_inverse(rhs)
-            Minv_fr = sol[:, :3]
-            Minv_Mrs = sol[:, 3:].reshape(n_int, 3, n_slow)
-            schur = M_ss - M_rsT @ Minv_Mrs.reshape(-1, n_slow)
-            reduced_rhs = Q_slow - M_rsT @ Minv_fr.reshape(-1)
-        else:
-            schur, reduced_rhs = M_ss, Q_slow
         if active.size:
             prescribed = jnp.zeros(active.size) if reel_acceleration is None else jnp.asarray(reel_acceleration)
             schur = schur.at[active].set(jnp.eye(n_slow, dtype=schur.dtype)[active])
             reduced_rhs = reduced_rhs.at[active].set(prescribed)
         a_slow = _small_solve(schur, reduced_rhs)
-        if internal.size:
-            a_r = Minv_fr
-            for k in range(n_slow):  # elementwise, not a reduction over the short slow axis
-                a_r = a_r - Minv_Mrs[..., k] * a_slow[k]
+        if parts:
+            pieces = []
+            for Y, Z, cols in parts:
+                a_local = _gather_vec(cols, a_slow)
+                a_j = Y
+                for kk in range(Z.shape[-1]):  # elementwise, not a reduction over the short slow axis
+                    a_j = a_j - Z[..., kk] * a_local[kk]
+                pieces.append(a_j)
+            a_r = jnp.concatenate(pieces)
         else:
             a_r = q.r * 0.0
-        n_p = S.shape[1]
         return CableCoords(r=a_r, s=a_slow[:n_p], u=a_slow[-1], h=a_slow[n_p:-1].reshape(-1, 3))
 
     def _cable_terms_x(self, x, xd, assemble=True):

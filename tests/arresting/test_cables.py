@@ -284,6 +284,25 @@ def test_accelerations_match_dense_autodiff_lagrange(buffer_accelerations):
         np.testing.assert_allclose(np.asarray(got), np.asarray(want), rtol=0, atol=1e-11 * scale)
 
 
+def test_accelerations_match_autodiff_with_a_span_between_two_block_pulleys():
+    """A strand between two pulleys that both ride the block: its span sees the block's travel at
+    both ends (one shared slow column of the span-by-span solve), against the dense ``jacfwd``
+    Lagrange reference, with external forces on every coordinate."""
+    pts = [[0, -20.0, 0], [0, -5.0, -10.0], [0, 5.0, -10.0], [0, 20.0, 0]]
+    route, q0 = _route(pts, ["end", "pulley", "pulley", "end"], [0, 1, 1, 0], [3, 4, 3], 1.0005)
+    sub = CableSubsystem(route, AleCable(EA_N=2.64e8, rhoA_kg_per_m=9.8, damping_s=1e-3), BufferDevice(counterweight_mass_kg=300.0))  # fmt: skip
+    assert route.span_slow_tables()[1]["block"] == (2, 2)  # both ends of the middle span: the same column
+    fast = jax.jit(lambda q, qd, ext: sub.accelerations(q, qd, ext))
+    reference = jax.jit(lambda q, qd, ext: sub._accelerations_autodiff(q, qd, ext))
+    for seed in range(2):
+        q, qdot, unravel, rng = _random_state(q0, seed)
+        external = unravel(1e3 * jnp.asarray(rng.normal(size=jax.flatten_util.ravel_pytree(q0)[0].shape)))
+        got = jax.flatten_util.ravel_pytree(fast(q, qdot, external))[0]
+        want = jax.flatten_util.ravel_pytree(reference(q, qdot, external))[0]
+        scale = float(jnp.max(jnp.abs(want)))
+        np.testing.assert_allclose(np.asarray(got), np.asarray(want), rtol=0, atol=1e-11 * scale)
+
+
 def test_material_point_forces_are_the_power_gradient():
     """``material_point_forces`` is d(power)/d(q_dot) of ``F . (v - r' s_dot)`` at the element ends,
     the definition, here by autodiff through the nodal map (independent of the closed form)."""
@@ -375,17 +394,22 @@ def test_active_pulley_rows_are_prescribed_and_the_rest_is_lagrange():
     assert float(jnp.max(jnp.abs(residual[free]))) < 1e-9 * float(jnp.max(jnp.abs(rhs)))
 
 
-def test_mass_pattern_inverse_is_the_inverse_without_a_lapack_call():
-    """The consistent-mass pattern's inverse equals LAPACK's to round-off, and its compiled program
-    calls no LAPACK kernel: batched LAPACK calls from two CPU devices at once deadlocked the
-    two-device sweep on XLA's shared thread pool (``_dominant_inverse``)."""
-    route, _ = _buffer_route()
-    got = route.mass_pattern_inverse()
-    pattern = jnp.linalg.inv(got)
-    np.testing.assert_allclose(np.asarray(got @ pattern), np.eye(got.shape[0]), rtol=0, atol=1e-12)
-    np.testing.assert_allclose(np.asarray(got), np.asarray(jnp.linalg.inv(pattern)), rtol=1e-12, atol=1e-12 * float(jnp.max(jnp.abs(got))))
-    stacked = jax.tree_util.tree_map(lambda x: jnp.stack([x, x]), route)
-    compiled = jax.jit(jax.vmap(lambda r: r.mass_pattern_inverse())).lower(stacked).compile()
-    text, batched = compiled.as_text(), compiled(stacked)
-    assert 'custom_call_target="lapack' not in text
-    np.testing.assert_allclose(np.asarray(batched[1]), np.asarray(got), rtol=0, atol=0)
+def test_span_pattern_inverses_invert_the_spans_mass_patterns_without_a_lapack_call():
+    """Each span's consistent-mass pattern inverse times the pattern built here from the material
+    fractions (diagonal ``2 (dF_left + dF_right)``, off-diagonal the shared element's ``dF``) is the
+    identity, and the compiled accelerations call no LAPACK kernel: batched LAPACK calls from two
+    CPU devices at once deadlocked the two-device sweep on XLA's shared thread pool
+    (``_dominant_inverse``)."""
+    route, q0 = _buffer_route()
+    spans = [np.asarray(f) for f, n in zip(route.fractions, route.elements) if n > 1]
+    got = route.span_pattern_inverses()
+    assert len(got) == len(spans) > 1
+    for inverse, f in zip(got, spans):
+        dF = np.diff(np.concatenate([[0.0], f, [1.0]]))
+        pattern = np.diag(2.0 * (dF[:-1] + dF[1:])) + np.diag(dF[1:-1], 1) + np.diag(dF[1:-1], -1)
+        np.testing.assert_allclose(np.asarray(inverse) @ pattern, np.eye(f.size), rtol=0, atol=1e-12)
+    sub, _ = _buffer_subsystem()
+    stacked = jax.tree_util.tree_map(lambda x: jnp.stack([x, x]), (sub, q0))
+    zero = jax.tree_util.tree_map(jnp.zeros_like, stacked[1])
+    compiled = jax.jit(jax.vmap(lambda s, q, qd: s.accelerations(q, qd))).lower(*stacked, zero).compile()
+    assert 'custom_call_target="lapack' not in compiled.as_text()
