@@ -320,8 +320,8 @@ class CableRoute(eqx.Module):
 
     def span_pattern_inverses(self):
         """Per span with internal nodes, ``That_j^-1`` (m_j, m_j): the inverse of its internal-node
-        consistent-mass pattern (:meth:`mass_pattern_inverse`'s diagonal blocks, computed block by
-        block). ``That_j`` is tridiagonal in the material fractions ``F`` (diagonal ``2 (dF_left +
+        consistent-mass pattern (the cable's pattern is block diagonal over the spans). ``That_j``
+        is tridiagonal in the material fractions ``F`` (diagonal ``2 (dF_left +
         dF_right)``, off-diagonal the shared element's ``dF``), so it depends only on the (constant)
         fractions: under ``jit`` XLA computes the inverses once, outside the solver's loop."""
         out = []
