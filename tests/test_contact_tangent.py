@@ -68,7 +68,7 @@ def test_sparse_contact_derivative_equals_all_pairs_and_finite_differences(mid_l
     assert 0 < touching <= 48
     v_all, t_all, c_all = _jvp_vjp(_with(base, None), y, direction)
     v_48, t_48, c_48 = _jvp_vjp(base, y, direction)
-    assert _max_rel(v_all, v_48) == 0.0  # values never depend on M
+    assert _max_rel(v_all, v_48) < 1e-12  # values never depend on M (to round-off: two programs)
     assert _max_rel(t_all, t_48) < 1e-12
     assert _max_rel(c_all, c_48) < 1e-12
     # independent: central differences of the vector field along the same direction
@@ -83,12 +83,13 @@ def test_sparse_contact_derivative_equals_all_pairs_and_finite_differences(mid_l
 
 def test_too_few_tangent_pairs_break_the_derivative(mid_landing):
     """The comparison above can fail: with M below the number of touching pairs the dropped pairs'
-    derivative is missing (the values stay exact)."""
+    derivative is missing (the values stay exact: equal to round-off, since the two programs are
+    compiled apart and XLA may order their sums differently; measured 1e-20)."""
     base, y, direction = mid_landing
     touching = int(_touching(base, y))
     v_all, t_all, _ = _jvp_vjp(_with(base, None), y, direction, vjp=False)
     v_few, t_few, _ = _jvp_vjp(_with(base, max(1, touching // 2)), y, direction, vjp=False)
-    assert _max_rel(v_all, v_few) == 0.0
+    assert _max_rel(v_all, v_few) < 1e-12
     assert _max_rel(t_all, t_few) > 1e-3  # measured 0.15 with 4 of the 8 touching pairs
 
 
