@@ -488,8 +488,8 @@ def _contract(A, B):
 
 def _spread(cols, M, n):
     """A span's (k, k) slow block ``M`` on its global slow columns ``cols`` (static) of an (n, n)
-    block: a scatter-add. (As one-hot products ``E M E^T``, or as multiply-sums, the vector field
-    of the full design case took 1.1-1.3x as long: ``docs/stiff_integrator.md``.)"""
+    block: a scatter-add. (As one-hot products ``E M E^T`` an evaluation of the full design case's
+    vector field took 1.1-1.2x as long, with multiply-sums 1.4-1.6x: ``docs/stiff_integrator.md``.)"""
     idx = np.asarray(cols, dtype=int)
     return jnp.zeros((n, n), M.dtype).at[idx[:, None], idx[None, :]].add(M)
 
@@ -969,14 +969,14 @@ class CableSubsystem(eqx.Module):
                     G1 = G1 - t_j[:, :, None] * (w[1][:-1, None, None] * onehot)
                     G2 = G2 - t_j[:, :, None] * (w[1][1:, None, None] * onehot)
             for end_ in (0, 1):
+                if span["hook"][end_] is None and span["block"][end_] is None:
+                    continue
                 V = np.zeros((3, k))
                 if span["hook"][end_] is not None:
                     V[:, list(span["hook"][end_])] = np.eye(3)
                 V = jnp.asarray(V, c.dtype)
                 if span["block"][end_] is not None:
                     V = V + route.block_direction[:, None] * np.eye(k)[span["block"][end_]][None, :]
-                if span["hook"][end_] is None and span["block"][end_] is None:
-                    continue
                 at = np.zeros(n_el)
                 at[0 if end_ == 0 else n_el - 1] = 1.0
                 if end_ == 0:
