@@ -12,6 +12,8 @@ around each limit inside which a screened verdict must be confirmed at the defau
 deviation seen, doubled. Reads CSVs only (no solve). Writes ``section4_screening.{json,md}``::
 
     python experiments/section4_screening.py
+    python experiments/section4_screening.py --default "sweep_two_phase_full_1body_{}_n100_screen.csv" \\
+        --screen "sweep_two_phase_full_1body_{}_n100_screen3.csv" --stem section4_screening_coarse --scenarios I
 """
 
 from __future__ import annotations
@@ -76,9 +78,10 @@ def write_md(data, path):
     lines = ["# Section IV at the full level: screening sweeps against the defaults", ""]
     lines += _report.header(data) + [""]
     lines += [
-        ("Screening: `--rtol 1e-4 --t-end 1.2` (the passive phase's W-method tolerance, time after capture); "
-        "defaults: rtol 1e-5, 2 s. Band: twice the largest relative deviation seen; a screened case whose "
-        "criterion lies within the band of its limit is rerun at the defaults."),
+        (f"Screening sweeps `{data.get('screen_csv', SCREEN)}` against `{data.get('default_csv', DEFAULT)}` "
+        "(their sidecars give the settings; the records named `*_screen.csv` ran at `--rtol 1e-4 --t-end 1.2`, "
+        "the defaults at the level's tolerance, 2 s after capture). Band: twice the largest relative deviation seen; "
+        "a screened case whose criterion lies within the band of its limit is rerun at the defaults."),
         "",
         "| scenario | cases | successful (default / screen) | verdicts agree (success, z, a, sigma) | max deviation z / a / sigma | to confirm | turned outside the band | `--confirm` reruns (band 0.2%) | W-method steps, median (default / screen) |",
         "|---|---:|---|---|---|---:|---|---:|---|",
@@ -100,13 +103,16 @@ def main():
     p.add_argument("--scenarios", nargs="+", default=["I", "II", "III"], choices=["I", "II", "III"])
     p.add_argument("--results", default=None, help="folder of the CSVs (default experiments/results)")
     p.add_argument("--out", default=None)
+    p.add_argument("--default", default=DEFAULT, help=f"the reference CSVs' name, {{}} for the scenario (default {DEFAULT})")
+    p.add_argument("--screen", default=SCREEN, help=f"the screening CSVs' name (default {SCREEN})")
+    p.add_argument("--stem", default=STEM, help=f"the outputs' name (default {STEM})")
     args = p.parse_args()
     enable_x64()
     res = Path(args.results) if args.results else Path(__file__).parent / "results"
     out = _report.output_dir(args.out)
     data = _report.start(scenarios={})
     for sc in args.scenarios:
-        paths = res / DEFAULT.format(sc), res / SCREEN.format(sc)
+        paths = res / args.default.format(sc), res / args.screen.format(sc)
         try:
             tables = [read_sweep_csv(path) for path in paths]
         except (FileNotFoundError, ValueError) as err:  # not run yet, or just started
@@ -116,7 +122,8 @@ def main():
         print(f"scenario {sc}: {data['scenarios'][sc]['cases']} cases in both", flush=True)
     if not data["scenarios"]:
         raise SystemExit("no scenario has both CSVs")
-    _report.finish(data, out, STEM, write_md)
+    data["default_csv"], data["screen_csv"] = args.default, args.screen
+    _report.finish(data, out, args.stem, write_md)
 
 
 if __name__ == "__main__":

@@ -715,6 +715,16 @@ def test_cases_to_confirm_and_the_screened_sweeps_identity(reference, tmp_path):
     assert 0 in cases_to_confirm(nan).tolist()
     with pytest.raises(ValueError, match="band"):
         cases_to_confirm(table, band=-1.0)
+    # one band per criterion: case 2's a_max (1e-3 from its limit) is inside an a_max band of 2e-3
+    # and outside one of 5e-4, whatever the other two criteria's bands
+    per = {"z_max_m": 0.5, "a_max_g": 2e-3, "sigma_max_mpa": 1e-4}  # 5 m is 0.5 from 10 m: outside
+    assert cases_to_confirm(table, band=per).tolist() == [2, 4, 5]
+    assert cases_to_confirm(table, band=dict(per, a_max_g=5e-4)).tolist() == [4, 5]
+    assert cases_to_confirm(table, band=dict(per, z_max_m=0.6)).tolist() == list(range(7))
+    with pytest.raises(ValueError, match="missing"):
+        cases_to_confirm(table, band={"a_max_g": 1e-3})
+    with pytest.raises(ValueError, match="band\\[sigma_max_mpa\\]"):
+        cases_to_confirm(table, band=dict(per, sigma_max_mpa=0.0))
     side = read_sidecar(screen)
     identity, case_fn = side["identity"], side["case_fn"]
     check_screened(screen, identity, dict(case_fn, t_end_s=99.0, rtol=1e-3), SWEEP["n"])  # settings may differ
@@ -747,6 +757,13 @@ def test_cli_confirms_the_screened_cases_near_a_limit(reference, tmp_path, capsy
             np.testing.assert_allclose(merged[name][c], source[name][c], rtol=1e-9)
         assert merged["success"][c] == source["success"][c]
     assert summary["n_success"] == int(np.sum(merged["success"]))
+    # three bands, one per criterion (z, a, sigma): an a_max band of 5e-4 leaves case 2 out
+    out3 = tmp_path / "confirmed3.csv"
+    argv3 = [*argv[:-4], str(out3), "--confirm", str(screen), "--band", "1e-3", "5e-4", "1e-3", "--json"]
+    assert sweep_main(argv3) == 0
+    assert json.loads(capsys.readouterr().out)["confirmation"]["cases"] == [4, 5]
+    assert sweep_main([*argv3[:-3], "5e-4", "--json"]) == 2  # two numbers
+    assert "one number" in capsys.readouterr().err
     # the screened file itself is refused as the output
     assert sweep_main([*argv[:-5], "--out", str(screen), "--confirm", str(screen), "--json"]) == 2
     assert "screened sweep itself" in capsys.readouterr().err

@@ -92,6 +92,7 @@ from jaxcable.core.validation import (
     check_vector,
 )
 from jaxcable.core.scene import AbstractScene
+from jaxcable.core.tracing import traced_once as _traced_once
 from jaxcable.arresting.buffer import BufferDevice
 from jaxcable.arresting.cable_sets import AleCables, HookPoints, MasslessCables, throat_weights
 from jaxcable.arresting.landing_rocket import flexible_landing_rocket, rigid_landing_rocket
@@ -278,6 +279,14 @@ def _cable_rows(state):
     return q.r, q.s, q.h, q.u, qdot.r, qdot.s, qdot.h, qdot.u
 
 
+def _time(t):
+    """A time as an array, so that a Python number is a traced argument of :func:`_traced_once`
+    (not a static one, which would trace and compile again for every value). Arrays and tracers
+    pass unchanged (their dtype kept); a Python number becomes a weakly typed array, which
+    promotes as the number would."""
+    return t if isinstance(t, (jax.Array, np.ndarray)) else jnp.asarray(t)
+
+
 class PassiveLandingScene(AbstractScene):
     """Rocket + cable set after capture. ``rocket`` is a landing rocket (rigid or flexible, see
     :mod:`jaxcable.arresting.landing_rocket`); ``cables`` is :class:`MasslessCables` or :class:`AleCables`."""
@@ -340,6 +349,9 @@ class PassiveLandingScene(AbstractScene):
         return drocket, dcables, forces, aux
 
     def vector_field(self, t, state):
+        return _traced_once(type(self)._vector_field, self, _time(t), state)
+
+    def _vector_field(self, t, state):
         drocket, dcables, _, aux = self._step(t, state)
         rate = state.rocket.hinge_rate
         hook_power = self.rocket.params.hook_rotational_damping_N_m_s_per_rad * jnp.sum(rate**2)
@@ -352,6 +364,9 @@ class PassiveLandingScene(AbstractScene):
         )
 
     def stiff_linearisation(self, t, state, hook_coupling: bool = True):
+        return _traced_once(type(self)._stiff_linearisation, self, _time(t), state, hook_coupling)
+
+    def _stiff_linearisation(self, t, state, hook_coupling: bool = True):
         """The stiff part of the Jacobian for ``simulate(solver="rosw")``
         (:mod:`jaxcable.arresting.stiff`): the ALE cables' internal nodes and border, the hooks'
         hinges, and (``hook_coupling``) the cable rows' columns on the rocket's coordinates through
@@ -469,6 +484,9 @@ class PassiveLandingScene(AbstractScene):
         return jnp.linspace(0.0, t1, 5)
 
     def probe(self, t, state):
+        return _traced_once(type(self)._probe, self, _time(t), state)
+
+    def _probe(self, t, state):
         drocket, dcables, forces, aux = self._step(t, state)
         hooks = self.hooks(state.rocket)
         o_pos, o_vel = self.rocket.reference_point(state.rocket)

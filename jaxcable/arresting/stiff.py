@@ -28,6 +28,7 @@ from jax.flatten_util import ravel_pytree
 
 from jaxcable.arresting.cable_sets import HookPoints
 from jaxcable.core import banded
+from jaxcable.core.tracing import traced_once
 from jaxcable.core.rosenbrock import DenseLinearisation
 
 __all__ = ["CableLinearisation", "ChainPlan", "ExplicitLinearisation", "HookCoupling", "chain_plan", "dense_reference"]
@@ -327,6 +328,9 @@ class _CableFactors(eqx.Module):
     """``(beta^2 I - beta C_h - K_h)^-1`` (nh, nh) of the hooks' hinge rows, None without hinges."""
 
     def solve(self, rhs):
+        return traced_once(type(self)._solve, self, rhs)
+
+    def _solve(self, rhs):
         beta, B = self.beta, self.lin.blocks
         out = jax.tree_util.tree_map(lambda b: b / beta, rhs)
         if self.lin.hinge is not None:

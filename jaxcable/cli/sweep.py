@@ -15,7 +15,7 @@ import jax
 import numpy as np
 
 from jaxcable.arresting.passive import DEFAULT_CABLE_DAMPING_S
-from jaxcable.arresting.screening import SCREENING_BAND, run_confirmation
+from jaxcable.arresting.screening import COARSE_SCREENING_BANDS, SCREENING_BAND, run_confirmation
 from jaxcable.arresting.sweep import SWEEP_FIDELITIES, qmc_case_fn, run_qmc_sweep, summarize_sweep, summary_markdown
 from jaxcable.arresting.sweep_plots import plot_histories, plot_landing_plane, plot_tracking
 from jaxcable.arresting.uncertainty import PHASES, SCENARIOS, halton_samples, scenario_settings
@@ -89,8 +89,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--t-end 1.2) whose criteria lie within --band of a limit, that failed, or that had not stopped; the rows go to "
         "--out, the screened table with them in place to OUT_merged.csv, and the summary is of the merged table",
     )
-    p.add_argument("--band", type=positive("--band"), default=SCREENING_BAND,
-                   help=f"with --confirm: relative distance from a limit inside which a screened verdict is rerun (default {SCREENING_BAND:g})")
+    p.add_argument("--band", type=positive("--band"), nargs="+", default=[SCREENING_BAND], metavar="BAND",
+                   help=f"with --confirm: relative distance from a limit inside which a screened verdict is rerun: one number for "
+                   f"every criterion (default {SCREENING_BAND:g}, for a screen at --rtol 1e-4) or three, for z_max, a_max and "
+                   f"sigma_max (a screen at --rtol 1e-3: {' '.join(f'{v:g}' for v in COARSE_SCREENING_BANDS.values())})")
     p.add_argument("--plot", metavar="PREFIX", help="write PREFIX_plane.png (Fig 21), PREFIX_histories.png (Figs 18-20) and, with --phase full, PREFIX_tracking.png (Figs 15-17)")
     p.add_argument("--plot-cases", type=positive_int("--plot-cases"), default=32, help="cases in the histories and tracking plots (default 32)")
     p.add_argument("--process-index", type=int, default=None, help="this host's index in a multi-host sweep (default: jax.process_index())")
@@ -166,7 +168,8 @@ def run(args: argparse.Namespace) -> Report:
     }
     confirmation = None
     if args.confirm:
-        confirmation = run_confirmation(args.confirm, args.scenario, args.n, band=args.band, **sweep_kwargs)
+        band = _band(args.band)
+        confirmation = run_confirmation(args.confirm, args.scenario, args.n, band=band, **sweep_kwargs)
         table = confirmation["merged"]
     else:
         table = run_qmc_sweep(args.scenario, args.n, **sweep_kwargs)
@@ -185,7 +188,7 @@ def run(args: argparse.Namespace) -> Report:
     title = f"scenario {args.scenario}, {args.phase} phase, fidelity {args.fidelity}"
     if confirmation is not None:
         summary["confirmation"] = {
-            "screened": args.confirm, "band": args.band, "cases": confirmation["cases"].tolist(),
+            "screened": args.confirm, "band": band, "cases": confirmation["cases"].tolist(),
             "turned": confirmation["turned"], "merged_csv": confirmation["merged_csv"],
         }  # fmt: skip
         title += f", {args.confirm} with {len(confirmation['cases'])} cases confirmed"
@@ -204,10 +207,26 @@ def run(args: argparse.Namespace) -> Report:
     if confirmation is not None:
         cases = ", ".join(map(str, confirmation["cases"].tolist())) or "none"
         turned = ", ".join(map(str, confirmation["turned"])) or "none"
-        lines.append(f"confirmed {len(confirmation['cases'])} cases within {args.band:g} of a limit (or failed, or not stopped): {cases}; verdicts turned: {turned}")
+        lines.append(f"confirmed {len(confirmation['cases'])} cases within {_band_text(band)} of a limit (or failed, or not stopped): {cases}; verdicts turned: {turned}")
         lines.append(f"merged table in {confirmation['merged_csv']}")
     lines += [f"plot written to {path}" for path in summary.get("plots", [])]
     return Report(summary, "\n".join(lines), ok=not summary["n_failed"])
+
+
+def _band(values: list[float]):
+    """``--band``'s one number (every criterion) or three (z_max, a_max, sigma_max) as
+    :func:`jaxcable.arresting.screening.cases_to_confirm` takes them."""
+    if len(values) == 1:
+        return values[0]
+    if len(values) == 3:
+        return dict(zip(("z_max_m", "a_max_g", "sigma_max_mpa"), values))
+    raise ValueError(f"--band takes one number (every criterion) or three (z_max, a_max, sigma_max), got {len(values)}: {values}")
+
+
+def _band_text(band) -> str:
+    if isinstance(band, dict):
+        return " / ".join(f"{v:g}" for v in band.values()) + " (z / a / sigma)"
+    return f"{band:g}"
 
 
 def sweep_main(argv: list[str] | None = None) -> int:
