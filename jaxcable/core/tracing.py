@@ -6,8 +6,8 @@ its step more than once, so a vector field, a probe, a linearisation or a struct
 plainly is traced at every place. :func:`traced_once` calls it through ``jax.jit(..., inline=True)``:
 JAX caches the trace by the arguments' structure and shapes and inlines its equations into the
 enclosing program, so the compiled program is the same as a plain call's. On the full level's
-design case (0.3 s, 2-core Intel Xeon, JAX 0.10.2 CPU, float64) tracing took 8-10 s instead of
-27 s and the whole cached first call 28.7 s instead of 53.6 s, the same steps and outputs to every
+design case (0.3 s, 2-core Intel Xeon, JAX 0.10.2 CPU, float64) tracing took 8 s instead of
+27 s and the whole cached first call 25.5 s instead of 53.6 s, the same steps and outputs to every
 digit (``docs/sweeps.md``, "Start-up"). Inlined rather than a nested call: with the vector field
 a nested ``jit`` call, a program that also held a dense LU (the tests' reference of the W-method's
 step) failed at run time with "No registered implementation for untyped custom call to
