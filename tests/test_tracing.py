@@ -55,11 +55,16 @@ def test_traced_once_per_structure_with_the_plain_calls_values_and_derivatives()
 def test_traced_once_traces_again_for_another_structure_or_static_value():
     spring = _Spring(jnp.asarray(3.0))
     x = jnp.asarray([0.2, -0.5, 1.5])
-    traced_once(type(spring).force, spring, x, x)
-    traced_once(type(spring).force, spring, x, x)  # the same: cached
+    call = jax.jit(lambda s, x_: traced_once(type(s).force, s, x_, x_))
+    call(spring, x)
+    call(spring, 2.0 * x)  # the same structure and shapes: cached
     assert len(spring.calls) == 1
-    traced_once(type(spring).force, spring, x[:2], x[:2])  # other shapes
+    call(spring, x[:2])  # other shapes
     assert len(spring.calls) == 2
     other = _Spring(jnp.asarray(3.0), name="other", calls=spring.calls)  # another static field
-    traced_once(type(other).force, other, x, x)
+    call(other, x)
     assert len(spring.calls) == 3
+    # outside a trace it is a plain call: run (and counted) every time
+    traced_once(type(spring).force, spring, x, x)
+    traced_once(type(spring).force, spring, x, x)
+    assert len(spring.calls) == 5

@@ -25,8 +25,11 @@ __all__ = ["traced_once"]
 def traced_once(method, scene, *args):
     """``method(scene, *args)``, traced once per structure and shapes of its arguments (arrays
     traced, everything else static and hashed) and inlined into the enclosing program. ``method``
-    must return arrays (a PyTree of them, static fields of modules allowed)."""
+    must return arrays (a PyTree of them, static fields of modules allowed). Called outside a
+    trace (no argument a tracer), it is a plain call."""
     dynamic, static = eqx.partition((scene, args), eqx.is_array)
+    if not any(isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves(dynamic)):
+        return method(scene, *args)  # outside a trace: run as before, nothing to compile
     return _inline_call(method, _Static(static), dynamic)
 
 
