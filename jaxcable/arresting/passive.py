@@ -279,14 +279,6 @@ def _cable_rows(state):
     return q.r, q.s, q.h, q.u, qdot.r, qdot.s, qdot.h, qdot.u
 
 
-def _time(t):
-    """A time as an array, so that a Python number is a traced argument of :func:`_traced_once`
-    (not a static one, which would trace and compile again for every value). Arrays and tracers
-    pass unchanged (their dtype kept); a Python number becomes a weakly typed array, which
-    promotes as the number would."""
-    return t if isinstance(t, (jax.Array, np.ndarray)) else jnp.asarray(t)
-
-
 class PassiveLandingScene(AbstractScene):
     """Rocket + cable set after capture. ``rocket`` is a landing rocket (rigid or flexible, see
     :mod:`jaxcable.arresting.landing_rocket`); ``cables`` is :class:`MasslessCables` or :class:`AleCables`."""
@@ -349,7 +341,7 @@ class PassiveLandingScene(AbstractScene):
         return drocket, dcables, forces, aux
 
     def vector_field(self, t, state):
-        return _traced_once(type(self)._vector_field, self, _time(t), state)
+        return _traced_once(type(self)._vector_field, self, t, state)
 
     def _vector_field(self, t, state):
         drocket, dcables, _, aux = self._step(t, state)
@@ -364,7 +356,7 @@ class PassiveLandingScene(AbstractScene):
         )
 
     def stiff_linearisation(self, t, state, hook_coupling: bool = True):
-        return _traced_once(type(self)._stiff_linearisation, self, _time(t), state, hook_coupling)
+        return _traced_once(type(self)._stiff_linearisation, self, t, state, hook_coupling)
 
     def _stiff_linearisation(self, t, state, hook_coupling: bool = True):
         """The stiff part of the Jacobian for ``simulate(solver="rosw")``
@@ -484,7 +476,7 @@ class PassiveLandingScene(AbstractScene):
         return jnp.linspace(0.0, t1, 5)
 
     def probe(self, t, state):
-        return _traced_once(type(self)._probe, self, _time(t), state)
+        return _traced_once(type(self)._probe, self, t, state)
 
     def _probe(self, t, state):
         drocket, dcables, forces, aux = self._step(t, state)

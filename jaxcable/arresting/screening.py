@@ -61,11 +61,12 @@ def criterion_bands(band) -> dict:
         missing = [k for k in names if k not in band]
         if unknown or missing:
             raise ValueError(f"band must name each of {', '.join(names)}; unknown {unknown}, missing {missing}")
-        out = {k: float(band[k]) for k in names}
+        out = {k: band[k] for k in names}
+        for k, v in out.items():
+            check_positive(f"band[{k}]", v)
     else:
-        out = {k: band for k in names}
-    for k, v in out.items():
-        check_positive(f"band[{k}]" if isinstance(band, dict) else "band", v)
+        check_positive("band", band)
+        out = dict.fromkeys(names, band)
     return {k: float(v) for k, v in out.items()}
 
 

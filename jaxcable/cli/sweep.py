@@ -16,7 +16,7 @@ import numpy as np
 
 from jaxcable.arresting.passive import DEFAULT_CABLE_DAMPING_S
 from jaxcable.arresting.screening import COARSE_SCREENING_BANDS, SCREENING_BAND, run_confirmation
-from jaxcable.arresting.sweep import SWEEP_FIDELITIES, qmc_case_fn, run_qmc_sweep, summarize_sweep, summary_markdown
+from jaxcable.arresting.sweep import CRITERIA, SWEEP_FIDELITIES, qmc_case_fn, run_qmc_sweep, summarize_sweep, summary_markdown
 from jaxcable.arresting.sweep_plots import plot_histories, plot_landing_plane, plot_tracking
 from jaxcable.arresting.uncertainty import PHASES, SCENARIOS, halton_samples, scenario_settings
 from jaxcable.cli.report import Report, cable_damping, emit, positive
@@ -219,7 +219,7 @@ def _band(values: list[float]):
     if len(values) == 1:
         return values[0]
     if len(values) == 3:
-        return dict(zip(("z_max_m", "a_max_g", "sigma_max_mpa"), values))
+        return dict(zip((c[0] for c in CRITERIA), values))
     raise ValueError(f"--band takes one number (every criterion) or three (z_max, a_max, sigma_max), got {len(values)}: {values}")
 
 

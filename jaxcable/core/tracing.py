@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import equinox as eqx
 import jax
+import jax.numpy as jnp
+import numpy as np
 
 __all__ = ["traced_once"]
 
@@ -25,12 +27,19 @@ __all__ = ["traced_once"]
 def traced_once(method, scene, *args):
     """``method(scene, *args)``, traced once per structure and shapes of its arguments (arrays
     traced, everything else static and hashed) and inlined into the enclosing program. ``method``
-    must return arrays (a PyTree of them, static fields of modules allowed). Called outside a
-    trace (no argument a tracer), it is a plain call."""
+    must return arrays (a PyTree of them, static fields of modules allowed). A number among
+    ``args`` (a time given as a Python or NumPy scalar) is passed as a weakly typed array, so it
+    is traced, not a static value that would trace again for every value; bools stay static (a
+    switch). Called outside a trace (no argument a tracer), it is a plain call."""
+    args = tuple(jnp.asarray(a) if _is_number(a) else a for a in args)
     dynamic, static = eqx.partition((scene, args), eqx.is_array)
     if not any(isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves(dynamic)):
         return method(scene, *args)  # outside a trace: run as before, nothing to compile
     return _inline_call(method, _Static(static), dynamic)
+
+
+def _is_number(a) -> bool:
+    return isinstance(a, (int, float, np.number)) and not isinstance(a, (bool, np.bool_))
 
 
 class _Static:
