@@ -674,10 +674,11 @@ def test_physics_case_out_of_steps_is_a_failed_row(tmp_path):
 # ------------------------------------------------------------------------------------------------
 
 
-def _doctored_screen(reference, path):
+def _doctored_screen(reference, path, passive_rtol=1e-4):
     """A stand-in for a screening sweep: the reference CSV and sidecar, its rows edited so that the
     cases to confirm are known (case 2 within 0.1% of the a_max limit, case 4 failed, case 5 not
-    stopped; the others far from every limit, stopped, successful)."""
+    stopped; the others far from every limit, stopped, successful); its sidecar says it ran at
+    ``passive_rtol``."""
     out, _ = reference
     lines = Path(out).read_text().splitlines()
     header = lines[0].split(",")
@@ -698,7 +699,9 @@ def _doctored_screen(reference, path):
             row[col["stopped"]] = "False"
         rows.append(",".join(row))
     path.write_text("\n".join([lines[0], *rows]) + "\n")
-    Path(str(path) + ".json").write_text(Path(str(out) + ".json").read_text())
+    side = json.loads(Path(str(out) + ".json").read_text())
+    side["case_fn"]["passive_rtol"] = passive_rtol  # the tolerance a screen ran at (its measured band)
+    Path(str(path) + ".json").write_text(json.dumps(side))
     return path
 
 
@@ -791,3 +794,13 @@ def test_cli_confirms_the_screened_cases_near_a_limit(reference, tmp_path, capsy
     # the screened file itself is refused as the output
     assert sweep_main([*argv[:-5], "--out", str(screen), "--confirm", str(screen), "--json"]) == 2
     assert "screened sweep itself" in capsys.readouterr().err
+    # without --band: the band measured for the screen's tolerance; a tolerance with none is refused
+    coarse = _doctored_screen(reference, tmp_path / "coarse.csv", passive_rtol=1e-3)
+    out_c = tmp_path / "confirmed_coarse.csv"
+    assert sweep_main([*argv[:-4], str(out_c), "--confirm", str(coarse), "--json"]) == 0
+    conf = json.loads(capsys.readouterr().out)["confirmation"]
+    assert conf["band"]["a_max_g"] > 1e-3 and conf["cases"] == [2, 4, 5]  # 5.005 g: inside the coarse a_max band
+    odd = _doctored_screen(reference, tmp_path / "odd.csv", passive_rtol=5e-4)
+    assert sweep_main([*argv[:-4], str(tmp_path / "odd_out.csv"), "--confirm", str(odd), "--json"]) == 2
+    err = capsys.readouterr().err
+    assert "no band is measured" in err and "0.0005" in err

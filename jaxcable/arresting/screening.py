@@ -33,7 +33,10 @@ from jaxcable.arresting.sweep import (
 from jaxcable.core.validation import check_positive
 from jaxcable.studies.sweep import merge_sweep_csvs, read_sidecar, read_sweep_csv
 
-__all__ = ["COARSE_SCREENING_BANDS", "SCREENING_BAND", "SCREENING_SETTINGS", "cases_to_confirm", "check_screened", "criterion_bands", "merged_path", "run_confirmation"]
+__all__ = [
+    "COARSE_SCREENING_BANDS", "MEASURED_BANDS", "SCREENING_BAND", "SCREENING_SETTINGS", "cases_to_confirm", "check_screened",
+    "criterion_bands", "measured_band", "merged_path", "run_confirmation",
+]  # fmt: skip
 
 SCREENING_BAND = 2e-3
 """Relative distance from a criterion's limit inside which a screened verdict is rerun (0.2%)."""
@@ -47,6 +50,14 @@ a_max, sigma_max over section IV's 3 x 100 cases, rigid rocket, default mesh;
 screen from the defaults (3.3e-4, 6.7e-4, 5e-5, :data:`SCREENING_BAND`'s measurement). Every
 verdict the coarse screen turned against the ``--rtol 1e-4`` screen (4 of 300) lies inside them;
 they send 20-22 cases a scenario back to the defaults (``docs/sweeps.md``)."""
+
+MEASURED_BANDS = {
+    1e-4: {"z_max_m": SCREENING_BAND, "a_max_g": SCREENING_BAND, "sigma_max_mpa": SCREENING_BAND},
+    1e-3: COARSE_SCREENING_BANDS,
+}
+"""The bands measured for a screening sweep's passive-phase tolerance (``--rtol`` of the screen, over
+1.2 s after capture): what :func:`run_confirmation` uses when it is given no band
+(:func:`measured_band`)."""
 
 SCREENING_SETTINGS = ("t_end_s", "rtol", "passive_rtol", "max_steps")
 """The case-function settings in which a screening sweep may differ from its confirmation; every
@@ -92,6 +103,21 @@ def cases_to_confirm(table: dict, band: float | dict = SCREENING_BAND, criteria:
     return np.asarray(table["case"], dtype=int)[near]
 
 
+def measured_band(screened_csv) -> dict:
+    """The bands of :data:`MEASURED_BANDS` for the passive-phase tolerance that ``screened_csv`` (its
+    sidecar) ran at. A screen at a tolerance with no measured band is refused: pass ``band``."""
+    side = read_sidecar(screened_csv) or {}
+    rtol = side.get("case_fn", {}).get("passive_rtol")
+    for tol, bands in MEASURED_BANDS.items():
+        if rtol is not None and np.isclose(float(rtol), tol, rtol=1e-9, atol=0.0):
+            return dict(bands)
+    measured = ", ".join(f"{t:g}" for t in MEASURED_BANDS)
+    raise ValueError(
+        f"{screened_csv}: no band is measured for a screen at passive rtol = {rtol!r} (measured: {measured}); "
+        "pass the band (--band) from a comparison of such a screen with the defaults (experiments/section4_screening.py)"
+    )
+
+
 def check_screened(screened_csv, identity: dict, case_fn_identity: dict, n: int) -> dict:
     """Refuse to confirm ``screened_csv`` with a sweep it was not screening for: its sidecar's
     identity (scenario, phase, seed, process slice) must equal ``identity``, its case function's
@@ -135,7 +161,7 @@ def run_confirmation(
     phase: str = "passive",
     fidelity: str = "rigid",
     seed: int = 0,
-    band: float | dict = SCREENING_BAND,
+    band: float | dict | None = None,
     process_index: int = 0,
     process_count: int = 1,
     batch_size="auto",
@@ -146,9 +172,10 @@ def run_confirmation(
     """Rerun the cases of ``screened_csv`` that :func:`cases_to_confirm` picks, as
     :func:`~jaxcable.arresting.sweep.run_qmc_sweep` with the same arguments would (the defaults
     unless ``case_kwargs`` say otherwise), into ``out``; then write the screened table with the
-    confirmed rows in place to :func:`merged_path` (``out``).
+    confirmed rows in place to :func:`merged_path` (``out``). ``band``: as :func:`cases_to_confirm`
+    takes it; None, the band measured for the screen's tolerance (:func:`measured_band`).
 
-    Returns ``{"cases", "confirmed", "merged", "turned", "merged_csv"}``: the confirmed case indices,
+    Returns ``{"cases", "confirmed", "merged", "turned", "merged_csv", "band"}``: the confirmed case indices,
     the confirmed and merged tables (columns), and the cases whose success verdict the
     confirmation turned."""
     screened_csv = Path(screened_csv)
@@ -156,6 +183,7 @@ def run_confirmation(
         raise ValueError(f"out = {out} is the screened sweep itself; write the confirmation to another file")
     identity = sweep_identity(scenario, phase, seed, process_index, process_count)
     screened = check_screened(screened_csv, identity, qmc_case_fn(scenario, phase, fidelity, seed, **case_kwargs).describe(), n)
+    band = measured_band(screened_csv) if band is None else band
     cases = cases_to_confirm(screened, band)
     confirmed = None
     if cases.size:
@@ -171,4 +199,4 @@ def run_confirmation(
     turned = []
     if confirmed is not None:
         turned = [c for c, ok in zip(np.asarray(confirmed["case"], int).tolist(), np.asarray(confirmed["success"], bool).tolist()) if verdict[c] != ok]
-    return {"cases": cases, "confirmed": confirmed, "merged": merged, "turned": turned, "merged_csv": str(path)}
+    return {"cases": cases, "confirmed": confirmed, "merged": merged, "turned": turned, "merged_csv": str(path), "band": band}

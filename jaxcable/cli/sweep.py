@@ -15,7 +15,7 @@ import jax
 import numpy as np
 
 from jaxcable.arresting.passive import DEFAULT_CABLE_DAMPING_S
-from jaxcable.arresting.screening import COARSE_SCREENING_BANDS, SCREENING_BAND, run_confirmation
+from jaxcable.arresting.screening import MEASURED_BANDS, run_confirmation
 from jaxcable.arresting.sweep import CRITERIA, SWEEP_FIDELITIES, qmc_case_fn, run_qmc_sweep, summarize_sweep, summary_markdown
 from jaxcable.arresting.sweep_plots import plot_histories, plot_landing_plane, plot_tracking
 from jaxcable.arresting.uncertainty import PHASES, SCENARIOS, halton_samples, scenario_settings
@@ -89,10 +89,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--t-end 1.2) whose criteria lie within --band of a limit, that failed, or that had not stopped; the rows go to "
         "--out, the screened table with them in place to OUT_merged.csv, and the summary is of the merged table",
     )
-    p.add_argument("--band", type=positive("--band"), nargs="+", default=[SCREENING_BAND], metavar="BAND",
-                   help=f"with --confirm: relative distance from a limit inside which a screened verdict is rerun: one number for "
-                   f"every criterion (default {SCREENING_BAND:g}, for a screen at --rtol 1e-4) or three, for z_max, a_max and "
-                   f"sigma_max (a screen at --rtol 1e-3: {' '.join(f'{v:g}' for v in COARSE_SCREENING_BANDS.values())})")
+    p.add_argument("--band", type=positive("--band"), nargs="+", default=None, metavar="BAND",
+                   help="with --confirm: relative distance from a limit inside which a screened verdict is rerun: one number for "
+                   "every criterion or three, for z_max, a_max and sigma_max (default: the band measured for the screen's --rtol: "
+                   + "; ".join(f"{t:g}: {' '.join(f'{v:g}' for v in b.values())}" for t, b in MEASURED_BANDS.items())
+                   + "; a screen at another tolerance needs --band)")
     p.add_argument("--plot", metavar="PREFIX", help="write PREFIX_plane.png (Fig 21), PREFIX_histories.png (Figs 18-20) and, with --phase full, PREFIX_tracking.png (Figs 15-17)")
     p.add_argument("--plot-cases", type=positive_int("--plot-cases"), default=32, help="cases in the histories and tracking plots (default 32)")
     p.add_argument("--process-index", type=int, default=None, help="this host's index in a multi-host sweep (default: jax.process_index())")
@@ -168,8 +169,9 @@ def run(args: argparse.Namespace) -> Report:
     }
     confirmation = None
     if args.confirm:
-        band = _band(args.band)
+        band = None if args.band is None else _band(args.band)
         confirmation = run_confirmation(args.confirm, args.scenario, args.n, band=band, **sweep_kwargs)
+        band = confirmation["band"]
         table = confirmation["merged"]
     else:
         table = run_qmc_sweep(args.scenario, args.n, **sweep_kwargs)
