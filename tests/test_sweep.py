@@ -709,24 +709,29 @@ RESULTS = Path(__file__).resolve().parents[1] / "experiments" / "results"
 
 
 @pytest.mark.parametrize("scenario", SCENARIOS)
-def test_coarse_screening_bands_hold_the_recorded_coarse_screens(scenario):
-    """The recorded section IV screens at --rtol 1e-3 against those at --rtol 1e-4 (3 x 100 cases, no
-    solve here): each criterion's band covers twice the deviation seen, and every verdict the coarse
-    screen turned lies inside the bands, so --confirm reruns it."""
-    from jaxcable.arresting.screening import COARSE_SCREENING_BANDS, cases_to_confirm
+@pytest.mark.parametrize("suffix, bands", [("screen3", "COARSE_SCREENING_BANDS"), ("screen3e4", "SCREENING_BANDS_3E4")])
+def test_screening_bands_hold_the_recorded_screens(scenario, suffix, bands):
+    """The recorded section IV screens at --rtol 1e-3 and 3e-4 against those at --rtol 1e-4 (3 x 100
+    cases each, no solve here): each criterion's band covers twice the deviation seen, every verdict
+    the screen turned lies inside the bands (so --confirm reruns it), and --confirm picks those bands
+    from the screen's sidecar."""
+    from jaxcable.arresting import screening
     from jaxcable.studies.sweep import read_sweep_csv
 
-    coarse = read_sweep_csv(RESULTS / f"sweep_two_phase_full_1body_{scenario}_n100_screen3.csv")
+    bands = getattr(screening, bands)
+    path = RESULTS / f"sweep_two_phase_full_1body_{scenario}_n100_{suffix}.csv"
+    screen = read_sweep_csv(path)
     fine = read_sweep_csv(RESULTS / f"sweep_two_phase_full_1body_{scenario}_n100_screen.csv")
-    assert len(coarse["case"]) == len(fine["case"]) == 100
-    order_c, order_f = np.argsort(coarse["case"]), np.argsort(fine["case"])
-    for name, band in COARSE_SCREENING_BANDS.items():
-        c, f = np.asarray(coarse[name], float)[order_c], np.asarray(fine[name], float)[order_f]
+    assert len(screen["case"]) == len(fine["case"]) == 100
+    assert screening.measured_band(path) == bands
+    order_c, order_f = np.argsort(screen["case"]), np.argsort(fine["case"])
+    for name, band in bands.items():
+        c, f = np.asarray(screen[name], float)[order_c], np.asarray(fine[name], float)[order_f]
         assert 2.0 * np.nanmax(np.abs(c / f - 1.0)) <= band, name
-    turned = np.asarray(coarse["case"], int)[order_c][
-        np.asarray(coarse["success"], bool)[order_c] != np.asarray(fine["success"], bool)[order_f]
+    turned = np.asarray(screen["case"], int)[order_c][
+        np.asarray(screen["success"], bool)[order_c] != np.asarray(fine["success"], bool)[order_f]
     ]
-    assert set(turned.tolist()) <= set(cases_to_confirm(coarse, COARSE_SCREENING_BANDS).tolist())
+    assert set(turned.tolist()) <= set(screening.cases_to_confirm(screen, bands).tolist())
 
 
 def test_cases_to_confirm_and_the_screened_sweeps_identity(reference, tmp_path):
