@@ -27,7 +27,7 @@ import numpy as np
 from section4_node_vs_capsule import KEYS, NODE, _bool
 
 from jaxcable.arresting.passive import LandingCriteria
-from jaxcable.arresting.screening import SCREENING_BAND, cases_to_confirm
+from jaxcable.arresting.screening import cases_to_confirm, measured_band
 from jaxcable.core.config import enable_x64
 from jaxcable.studies.sweep import read_sidecar, read_sweep_csv
 
@@ -42,7 +42,7 @@ def _limits():
     return {"z_max_m": c.z_max_m, "a_max_g": c.a_max_g, "sigma_max_mpa": c.sigma_max_mpa}
 
 
-def compare(default: dict, screen: dict) -> dict:
+def compare(default: dict, screen: dict, confirm_band=None) -> dict:
     cases = sorted(set(np.asarray(default["case"], int)) & set(np.asarray(screen["case"], int)))
     rows = {}
     for name, t in (("default", default), ("screen", screen)):
@@ -67,10 +67,12 @@ def compare(default: dict, screen: dict) -> dict:
         near |= close
     out["to_confirm_any"] = int(near.sum())
     out["turned_outside_band"] = [int(c) for c, a, b, n in zip(cases, d["success"], s["success"], near) if a != b and not n]
-    # what `jaxcable sweep --confirm` would rerun at its default band
-    picked = cases_to_confirm(screen)
-    out["confirm_default_band"] = {"band": SCREENING_BAND, "cases": picked.tolist()}
-    out["turned_outside_default_band"] = [c for c in out["turned"] if c not in set(picked.tolist())]
+    # what `jaxcable sweep --confirm` would rerun without --band: the band measured for the screen's
+    # tolerance (None: none is measured, --confirm needs --band)
+    if confirm_band is not None:
+        picked = cases_to_confirm(screen, confirm_band)
+        out["confirm_default_band"] = {"band": confirm_band, "cases": picked.tolist()}
+        out["turned_outside_default_band"] = [c for c in out["turned"] if c not in set(picked.tolist())]
     out["steps_median"] = {"default": float(np.median(d["num_steps"])), "screen": float(np.median(s["num_steps"]))}
     return out
 
@@ -98,6 +100,11 @@ def confirmation(screen: dict, confirmed: dict, merged: dict) -> dict:
     }  # fmt: skip
 
 
+def _reruns(r) -> str:
+    picked = r.get("confirm_default_band")
+    return "needs `--band`" if picked is None else str(len(picked["cases"]))
+
+
 def write_md(data, path):
     lines = ["# Section IV at the full level: screening sweeps against a reference", ""]
     lines += _report.header(data) + [""]
@@ -107,7 +114,7 @@ def write_md(data, path):
         "Band: twice the largest relative deviation seen; a screened case whose criterion lies within the band "
         "of its limit is rerun at the reference's settings."),
         "",
-        "| scenario | cases | successful (reference / screen) | verdicts agree (success, z, a, sigma) | max deviation z / a / sigma | to confirm | turned outside the band | `--confirm` reruns (band 0.2%) | W-method steps, median (reference / screen) |",
+        "| scenario | cases | successful (reference / screen) | verdicts agree (success, z, a, sigma) | max deviation z / a / sigma | to confirm | turned outside the band | `--confirm` reruns (its measured band) | W-method steps, median (reference / screen) |",
         "|---|---:|---|---|---|---:|---|---:|---|",
     ]
     for sc, r in data["scenarios"].items():
@@ -116,7 +123,7 @@ def write_md(data, path):
             f"| {sc} | {r['cases']} | {r['success']['default']} / {r['success']['screen']} | "
             f"{a['success']}, {a['z_ok']}, {a['a_ok']}, {a['sigma_ok']} | "
             f"{dv['z_max_m']['max']:.1e} / {dv['a_max_g']['max']:.1e} / {dv['sigma_max_mpa']['max']:.1e} | "
-            f"{r['to_confirm_any']} | {r['turned_outside_band'] or 'none'} | {len(r['confirm_default_band']['cases'])} | "
+            f"{r['to_confirm_any']} | {r['turned_outside_band'] or 'none'} | {_reruns(r)} | "
             f"{r['steps_median']['default']:.0f} / {r['steps_median']['screen']:.0f} |"
         )
     if any("confirmation" in r for r in data["scenarios"].values()):
@@ -162,7 +169,11 @@ def main():
         except (FileNotFoundError, ValueError) as err:  # not run yet, or just started
             print(f"scenario {sc}: {err}, skipped")
             continue
-        data["scenarios"][sc] = compare(*tables)
+        try:
+            confirm_band = measured_band(paths[1])
+        except ValueError:  # a tolerance with no measured band (this comparison measures it)
+            confirm_band = None
+        data["scenarios"][sc] = compare(*tables, confirm_band)
         if args.confirmed:
             path = res / args.confirmed.format(sc)
             try:
