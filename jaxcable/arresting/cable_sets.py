@@ -48,6 +48,7 @@ from jaxcable.arresting.cables import (
     element_chain,
     element_rows,
     graded_fractions,
+    pattern_inverses,
 )
 from jaxcable.arresting.layout import HOOK_OF_CABLE, ArrestingLayout, span_endpoints
 
@@ -415,6 +416,7 @@ class AleCables(eqx.Module):
                 block_direction=jnp.array([0.0, 0.0, 1.0]),
                 kinds=kinds,
                 moving=moving,
+                pattern_inverses=pattern_inverses(fractions),
             )
             cable = AleCable(
                 EA_N=layout.EA_N, rhoA_kg_per_m=layout.rhoA_kg_per_m, damping_s=damping_s, slack_width=slack_width

@@ -44,7 +44,8 @@ tensions. The element terms of Lagrange's equations are written in closed form
 reference :meth:`CableSubsystem._cable_terms_x`), as is the map ``A^T`` to the generalised
 coordinates. The mass matrix is never formed: its internal-node block is ``rhoA L_j / 6 That_j``
 (x) I3 per span with ``That_j`` constant (it depends only on the material fractions), so its
-inverse is a parameter-only matrix that XLA hoists out of the solver's loop, and the Schur
+inverse is a parameter-only matrix, computed once on the host when the scene is built
+(:func:`pattern_inverses`), and the Schur
 complement on the few pulley/block coordinates is eliminated by an unrolled Gauss-Jordan: no
 LAPACK call and no autodiff inside the vector field. ``_accelerations_autodiff`` (dense ``jacfwd``
 mass, LU) is the reference the tests compare with (1e-11 relative).
@@ -86,6 +87,7 @@ __all__ = [
     "CableState",
     "CableSubsystem",
     "graded_fractions",
+    "pattern_inverses",
 ]
 
 
@@ -158,6 +160,12 @@ class CableRoute(eqx.Module):
     """Per boundary node, ``"end"`` (position and material fixed) or ``"pulley"`` (s free)."""
     moving: tuple = eqx.field(static=True)
     """Per boundary node, whether it rides the moving block."""
+    pattern_inverses: tuple | None = None
+    """Per span with internal nodes, the inverse of its consistent-mass pattern (m_j, m_j), or
+    ``None`` (computed from ``fractions`` inside the program). :func:`pattern_inverses` computes
+    them on the host from concrete fractions; a scene built so carries them as data, and no
+    evaluation of the vector field recomputes them (XLA does not hoist the in-program inverse, a
+    loop of its own, out of the solver's loop)."""
 
     def __check_init__(self):
         check_finite("boundary_points", self.boundary_points)
@@ -323,7 +331,12 @@ class CableRoute(eqx.Module):
         consistent-mass pattern (the cable's pattern is block diagonal over the spans). ``That_j``
         is tridiagonal in the material fractions ``F`` (diagonal ``2 (dF_left +
         dF_right)``, off-diagonal the shared element's ``dF``), so it depends only on the (constant)
-        fractions: under ``jit`` XLA computes the inverses once, outside the solver's loop."""
+        fractions. Returns ``pattern_inverses`` when the route carries them; otherwise they are
+        computed in the program, in every evaluation of the vector field that asks (XLA does not
+        hoist this loop out of a solver's loop: on the full level's design case the two spans'
+        inverses took most of an evaluation)."""
+        if self.pattern_inverses is not None:
+            return list(self.pattern_inverses)
         out = []
         for f, n_el in zip(self.fractions, self.elements):
             if n_el < 2:
@@ -513,6 +526,23 @@ def _matvec(A, x):
     return jnp.sum(A * x[None, :], axis=1)
 
 
+def pattern_inverses(fractions) -> tuple:
+    """Per span with internal nodes, the inverse of its consistent-mass pattern ``That_j`` (see
+    :meth:`CableRoute.span_pattern_inverses`), computed on the host with NumPy from concrete
+    fractions (a tuple of (n_j - 1,) arrays) and returned as JAX arrays, for
+    ``CableRoute(pattern_inverses=...)``."""
+    out = []
+    for f in fractions:
+        f = np.asarray(f, dtype=float)
+        if f.shape[0] < 1:
+            continue
+        F = np.concatenate([[0.0], f, [1.0]])
+        dF = np.diff(F)
+        pattern = np.diag(2.0 * (dF[:-1] + dF[1:])) + np.diag(dF[1:-1], 1) + np.diag(dF[1:-1], -1)
+        out.append(jnp.asarray(np.linalg.inv(pattern)))
+    return tuple(out)
+
+
 def _dominant_inverse(A):
     """``A^-1`` of a strictly diagonally dominant (n, n) matrix (the consistent-mass pattern): Gauss-Jordan
     without pivoting in a ``fori_loop``, no LAPACK call.
@@ -522,8 +552,9 @@ def _dominant_inverse(A):
     one JAX device per core (``jaxcable sweep --cpu-devices auto``) two programs share that pool of two
     threads; when both ran this inverse at once, each pool thread waited for work queued behind the other
     and the sweep stopped at 0% CPU (reproduced with two threads inverting on two CPU devices; JAX
-    0.10.2; ``docs/sweeps.md``). The inverse runs once per solve (outside the solver's loop), so its
-    cost does not matter."""
+    0.10.2; ``docs/sweeps.md``). Scenes built by :mod:`jaxcable.arresting.cable_sets` carry the
+    inverses computed on the host (:func:`pattern_inverses`); this one serves routes built without
+    them, and it runs in every evaluation of the vector field."""
     n = A.shape[-1]
     M = jnp.concatenate([A, jnp.eye(n, dtype=A.dtype)], axis=1)
     return jax.lax.fori_loop(0, n, _gauss_jordan_step, M)[:, n:]

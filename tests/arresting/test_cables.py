@@ -413,3 +413,42 @@ def test_span_pattern_inverses_invert_the_spans_mass_patterns_without_a_lapack_c
     zero = jax.tree_util.tree_map(jnp.zeros_like, stacked[1])
     compiled = jax.jit(jax.vmap(lambda s, q, qd: s.accelerations(q, qd))).lower(*stacked, zero).compile()
     assert 'custom_call_target="lapack' not in compiled.as_text()
+
+
+def _primitives(jaxpr):
+    """Every primitive's name in ``jaxpr`` and its sub-jaxprs (bodies of calls, loops, conds)."""
+    names = set()
+    for eqn in jaxpr.eqns:
+        names.add(eqn.primitive.name)
+        for sub in jax.core.jaxprs_in_params(eqn.params):
+            names |= _primitives(sub)
+    return names
+
+
+def test_scene_routes_carry_their_pattern_inverses_and_the_vector_field_has_no_loop():
+    """A scene's cables (``AleCables.build``, both hook models) carry each span's mass-pattern inverse
+    computed on the host (:func:`pattern_inverses`), equal to the in-program Gauss-Jordan of the same
+    fractions (``_dominant_inverse``, what a route built without them computes), and the vector
+    field traced from the scene has no loop: XLA does not hoist that inverse's ``fori_loop`` out of
+    a loop around the vector field, where it took most of an evaluation's time."""
+    from jaxcable.arresting.cables import _dominant_inverse, pattern_inverses
+    from jaxcable.arresting.passive import passive_landing_scene
+
+    for hook_contact, mesh in (("node", (24, 8)), ("capsule", (16, 8))):
+        scene = passive_landing_scene(
+            "full", t_end_s=0.01, hook_contact=hook_contact, n_span_elements=mesh[0], n_fine=mesh[1], n_rocket_bodies=1
+        )
+        route = scene.cables.subsystems.route
+        assert route.pattern_inverses is not None
+        n_cables = np.shape(route.s_boundary0)[0]
+        for k in range(n_cables):
+            fractions = [np.asarray(f[k]) for f in route.fractions]
+            carried = [np.asarray(x[k]) for x in route.pattern_inverses]
+            assert len(carried) == len(pattern_inverses(fractions)) == sum(f.size > 0 for f in fractions) > 1
+            for inverse, f in zip(carried, [f for f in fractions if f.size > 0]):
+                dF = np.diff(np.concatenate([[0.0], f, [1.0]]))
+                pattern = np.diag(2.0 * (dF[:-1] + dF[1:])) + np.diag(dF[1:-1], 1) + np.diag(dF[1:-1], -1)
+                np.testing.assert_allclose(inverse, np.asarray(_dominant_inverse(jnp.asarray(pattern))), rtol=0, atol=1e-12)
+        y0 = scene.initial_state()
+        jaxpr = jax.make_jaxpr(lambda y: scene.vector_field(0.0, y))(y0).jaxpr
+        assert not {"while", "scan"} & _primitives(jaxpr), hook_contact
