@@ -341,10 +341,7 @@ class CableRoute(eqx.Module):
         for f, n_el in zip(self.fractions, self.elements):
             if n_el < 2:
                 continue
-            F = jnp.concatenate([jnp.zeros(1, f.dtype), jnp.asarray(f), jnp.ones(1, f.dtype)])
-            dF = F[1:] - F[:-1]
-            pattern = jnp.diag(2.0 * (dF[:-1] + dF[1:])) + jnp.diag(dF[1:-1], 1) + jnp.diag(dF[1:-1], -1)
-            out.append(_dominant_inverse(pattern))
+            out.append(_dominant_inverse(_mass_pattern(jnp.asarray(f), jnp)))
         return out
 
     def boundary_s(self, q: CableCoords):
@@ -536,11 +533,17 @@ def pattern_inverses(fractions) -> tuple:
         f = np.asarray(f, dtype=float)
         if f.shape[0] < 1:
             continue
-        F = np.concatenate([[0.0], f, [1.0]])
-        dF = np.diff(F)
-        pattern = np.diag(2.0 * (dF[:-1] + dF[1:])) + np.diag(dF[1:-1], 1) + np.diag(dF[1:-1], -1)
-        out.append(jnp.asarray(np.linalg.inv(pattern)))
+        out.append(jnp.asarray(np.linalg.inv(_mass_pattern(f, np))))
     return tuple(out)
+
+
+def _mass_pattern(f, xp):
+    """A span's internal-node consistent-mass pattern ``That`` (m, m) from its (m,) material
+    fractions ``f``, with array module ``xp`` (NumPy on the host, ``jax.numpy`` in a program):
+    tridiagonal, diagonal ``2 (dF_left + dF_right)``, off-diagonal the shared element's ``dF``."""
+    F = xp.concatenate([xp.zeros(1, f.dtype), f, xp.ones(1, f.dtype)])
+    dF = F[1:] - F[:-1]
+    return xp.diag(2.0 * (dF[:-1] + dF[1:])) + xp.diag(dF[1:-1], 1) + xp.diag(dF[1:-1], -1)
 
 
 def _dominant_inverse(A):
