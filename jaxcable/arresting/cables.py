@@ -164,8 +164,8 @@ class CableRoute(eqx.Module):
     """Per span with internal nodes, the inverse of its consistent-mass pattern (m_j, m_j), or
     ``None`` (computed from ``fractions`` inside the program). :func:`pattern_inverses` computes
     them on the host from concrete fractions; a scene built so carries them as data, and no
-    evaluation of the vector field recomputes them (XLA does not hoist the in-program inverse, a
-    loop of its own, out of the solver's loop)."""
+    evaluation of the vector field recomputes them (XLA hoists the in-program inverse, a loop of its
+    own, out of diffrax's loop, but not out of every loop around the vector field)."""
 
     def __check_init__(self):
         check_finite("boundary_points", self.boundary_points)
@@ -332,9 +332,9 @@ class CableRoute(eqx.Module):
         is tridiagonal in the material fractions ``F`` (diagonal ``2 (dF_left +
         dF_right)``, off-diagonal the shared element's ``dF``), so it depends only on the (constant)
         fractions. Returns ``pattern_inverses`` when the route carries them; otherwise they are
-        computed in the program, in every evaluation of the vector field that asks (XLA does not
-        hoist this loop out of a solver's loop: on the full level's design case the two spans'
-        inverses took most of an evaluation)."""
+        computed in the program where the vector field asks (XLA hoists this loop out of diffrax's
+        loop, not out of a ``fori_loop`` around the vector field, where on the full level's design
+        case the two spans' inverses took most of an evaluation)."""
         if self.pattern_inverses is not None:
             return list(self.pattern_inverses)
         out = []
@@ -557,7 +557,7 @@ def _dominant_inverse(A):
     and the sweep stopped at 0% CPU (reproduced with two threads inverting on two CPU devices; JAX
     0.10.2; ``docs/sweeps.md``). Scenes built by :mod:`jaxcable.arresting.cable_sets` carry the
     inverses computed on the host (:func:`pattern_inverses`); this one serves routes built without
-    them, and it runs in every evaluation of the vector field."""
+    them (computed once per solve where XLA hoists it, as out of diffrax's loop)."""
     n = A.shape[-1]
     M = jnp.concatenate([A, jnp.eye(n, dtype=A.dtype)], axis=1)
     return jax.lax.fori_loop(0, n, _gauss_jordan_step, M)[:, n:]
