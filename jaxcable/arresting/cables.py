@@ -516,11 +516,20 @@ def _gather_vec(cols, v):
 
 
 def _matvec(A, x):
-    """``A @ x`` as broadcast-multiply-sum: the small contractions of the vector field are written
-    this way, so XLA fuses them with their neighbours (a ``dot`` is a separate kernel launch on
-    CPU, and launches, not flops, dominate at these sizes). Not the sums over all elements into
-    the slow-coordinate blocks: see :meth:`CableSubsystem.accelerations`."""
-    return jnp.sum(A * x[None, :], axis=1)
+    """``A @ x`` for a constant ``A`` (n, k) with few columns, as ``k`` elementwise multiply-adds:
+    neither a ``dot`` nor a reduction over the short axis, which XLA's CPU backend (JAX 0.10)
+    makes a library call of ~100 us under the linearisation's 8 tangents (``docs/stiff_integrator.md``,
+    "Short reductions"). Not the sums over all elements into the slow-coordinate blocks: see
+    :meth:`CableSubsystem.accelerations`."""
+    out = A[:, 0] * x[0]
+    for k in range(1, A.shape[1]):
+        out = out + A[:, k] * x[k]
+    return out
+
+
+def _sum3(x):
+    """``x.sum(axis=1)`` for ``x`` (n, 3, ...), written out (no reduction over the short axis)."""
+    return x[:, 0] + x[:, 1] + x[:, 2]
 
 
 def pattern_inverses(fractions) -> tuple:
@@ -773,12 +782,14 @@ class CableSubsystem(eqx.Module):
         inv_L = (1.0 / L)[:, None, None]
         I3 = jnp.broadcast_to(jnp.eye(3, dtype=dtype), (n, 3, 3))
         G = inv_L * jnp.concatenate([-I3, t[:, :, None], I3, -t[:, :, None]], axis=2)  # (n, 3, 8)
-        de = jnp.sum(t[:, :, None] * G, axis=1)  # (n, 8) d eps / dz = d eps_dot / dzdot
+        # sums over the 3 components written out: as reductions over that short axis XLA's CPU
+        # backend made them library calls dearer than the rest of the linearisation's arithmetic
+        de = _sum3(t[:, :, None] * G)  # (n, 8) d eps / dz = d eps_dot / dzdot
         dv = kin.v[1:] - kin.v[:-1]
         dsd = kin.sd[1:] - kin.sd[:-1]
         dL = jnp.asarray([0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 1.0], dtype)
         w = dv - 2.0 * dsd[:, None] * t
-        d_eps_dot = (jnp.sum(w[:, :, None] * G, axis=1) - eps_dot[:, None] * dL[None, :]) / L[:, None]
+        d_eps_dot = (_sum3(w[:, :, None] * G) - eps_dot[:, None] * dL[None, :]) / L[:, None]
         T, dT = jax.jvp(lambda e: axial_tension_factor(e, self.cable.slack_width), (eps,), (jnp.ones_like(eps),))
         N = EA * (T + beta * eps_dot)
         dN_z = EA * (dT[:, None] * de + beta * d_eps_dot)  # (n, 8)
